@@ -1,0 +1,5 @@
+"""Installs the offboard_py Python package from src/ (called by catkin_python_setup())."""
+from setuptools import setup
+from catkin_pkg.python_setup import generate_distutils_setup
+
+setup(**generate_distutils_setup(packages=['offboard_py'], package_dir={'': 'src'}))

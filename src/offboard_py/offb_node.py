@@ -1,0 +1,108 @@
+"""rospy wiring of the tutorial's offboard node.
+
+The decisions live in `offboard.OffboardLogic`; this module only connects them to
+ROS: the mavros/state subscription, the setpoint publisher, the two service proxies.
+Setpoints are published from their own rospy.Timer thread, so a service call that
+blocks the main loop (mavros may take up to 5 s to answer cmd/arming) never stalls
+the stream, as the tutorial's tip asks. All names are relative, so a namespace
+(`<group ns="uav1">` or ROS_NAMESPACE) moves the node together with its vehicle.
+"""
+
+import threading
+
+import rospy
+from geometry_msgs.msg import PoseStamped
+from mavros_msgs.msg import State
+from mavros_msgs.srv import CommandBool, SetMode
+
+from offboard_py import frames
+from offboard_py.offboard import OFFBOARD, OffboardLogic, ParamError, Request, VehicleState, validate_config
+
+NODE_NAME = 'offb_node_py'
+WAIT_LOG_PERIOD_S = 5.0
+
+
+def make_setpoint(config):
+    """The fixed PoseStamped the node streams (ENU position, unit quaternion from yaw)."""
+    pose = PoseStamped()
+    pose.header.frame_id = config.frame_id
+    pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = config.x, config.y, config.z
+    q = pose.pose.orientation
+    q.x, q.y, q.z, q.w = frames.quaternion_from_yaw(config.yaw)
+    return pose
+
+
+class OffbNode:
+    def __init__(self, config):
+        self.config = config
+        self.logic = OffboardLogic(config.prestream_count, config.request_interval_s, config.respect_pilot)
+        self.lock = threading.Lock()  # the logic is shared by the state, timer and main threads
+        self.setpoint = make_setpoint(config)
+        self.setpoint_pub = rospy.Publisher('mavros/setpoint_position/local', PoseStamped, queue_size=10)
+        self.set_mode = rospy.ServiceProxy('mavros/set_mode', SetMode)
+        self.arming = rospy.ServiceProxy('mavros/cmd/arming', CommandBool)
+        self.state_sub = rospy.Subscriber('mavros/state', State, self._on_state, queue_size=10)
+        self.stream_timer = rospy.Timer(rospy.Duration(1.0 / config.rate_hz), self._stream)
+
+    def _on_state(self, msg):
+        with self.lock:
+            lines = self.logic.on_state(VehicleState(msg.connected, msg.armed, msg.mode))
+        for line in lines:
+            rospy.loginfo(line)
+
+    def _stream(self, _event):
+        with self.lock:
+            if not self.logic.should_stream():
+                return
+        self.setpoint.header.stamp = rospy.Time.now()
+        self.setpoint_pub.publish(self.setpoint)
+        with self.lock:
+            self.logic.on_setpoint_sent(rospy.get_time())
+
+    def _request(self, request):
+        try:
+            if request is Request.SET_OFFBOARD:
+                if not self.set_mode(base_mode=0, custom_mode=OFFBOARD).mode_sent:
+                    rospy.logwarn('%s answered mode_sent=false for OFFBOARD', self.set_mode.resolved_name)
+            else:
+                response = self.arming(value=True)
+                if not response.success:
+                    rospy.logwarn('Arming refused by the FCU (MAV_RESULT %d)', response.result)
+        except rospy.ServiceException as err:
+            if not rospy.is_shutdown():
+                rospy.logwarn('%s failed: %s', request.value, err)
+        finally:
+            with self.lock:
+                self.logic.on_request_done(rospy.get_time())
+
+    def spin(self):
+        rate = rospy.Rate(self.config.rate_hz)
+        start_s = rospy.get_time()
+        last_wait_log_s = None
+        while not rospy.is_shutdown():
+            now_s = rospy.get_time()
+            with self.lock:
+                request = self.logic.next_request(now_s)
+                connected_once = self.logic.should_stream()
+            if request is not None:
+                self._request(request)
+            elif not connected_once and (last_wait_log_s is None or now_s - last_wait_log_s >= WAIT_LOG_PERIOD_S):
+                rospy.loginfo('Waiting for the FCU connection on %s (%.0f s so far)',
+                              self.state_sub.resolved_name, now_s - start_s)
+                last_wait_log_s = now_s
+            rate.sleep()
+
+
+def main():
+    """Run the node; return the process exit code (2 for a bad parameter)."""
+    try:
+        rospy.init_node(NODE_NAME)
+        try:
+            config = validate_config(lambda name, default: rospy.get_param('~' + name, default))
+        except ParamError as err:
+            rospy.logfatal('%s', err)
+            return 2
+        OffbNode(config).spin()
+    except (rospy.ROSInterruptException, KeyboardInterrupt):
+        pass
+    return 0
