@@ -1,0 +1,1 @@
+"""The mavros-compatible bridge: one module per mavros plugin; node.py assembles them."""

@@ -1,0 +1,183 @@
+"""One MAVLink 2 endpoint over UDP: the link layer shared by the bridge and the simulated PX4.
+
+- `parse_udp_url()` reads mavros's URL syntax `udp://[bind_host][:port]@[remote_host][:port]`.
+- `MavlinkLink` owns a UDP socket and a pymavlink codec. It learns its remote from the
+  packets it receives, as mavros's UDP link and PX4's do (so a client bound on 14540
+  answers PX4 wherever PX4 sends from), parses every datagram, and hands each message
+  to the handlers registered for its type: a plugin is a set of handlers, not a branch
+  in one long if/elif chain. Malformed bytes are counted and dropped, never raised.
+
+It knows nothing of ROS or of the simulator; the caller owns the receive loop
+(`fileno()` for select, `receive()` to drain the socket).
+"""
+
+import collections
+import errno
+import logging
+import socket
+import time
+from urllib.parse import urlsplit
+
+from pymavlink.dialects.v20 import development as mavlink
+
+# What the mavros URL leaves out: mavros binds 14555 and sends to 14550 by default.
+DEFAULT_BIND_PORT = 14555
+DEFAULT_REMOTE_PORT = 14550
+# Unlike mavros (0.0.0.0), we listen on loopback unless a bind host is given.
+DEFAULT_BIND_HOST = '127.0.0.1'
+MAX_DATAGRAM = 65535
+
+log = logging.getLogger(__name__)
+
+
+class UrlError(ValueError):
+    """An fcu_url/gcs_url this link cannot open; the message names the URL."""
+
+
+def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=DEFAULT_REMOTE_PORT):
+    """`udp://[bind_host][:port]@[remote_host][:port]` -> ((bind_host, port), (remote_host, port) or None).
+
+    A missing remote host means "learn it from the first packet". Raises UrlError.
+    """
+    if not isinstance(url, str) or '://' not in url:
+        raise UrlError('cannot read URL %r: expected udp://[bind_host][:port]@[remote_host][:port]' % (url,))
+    scheme, rest = url.split('://', 1)
+    if scheme != 'udp':
+        raise UrlError('URL %r: scheme %r is not supported (only udp://)' % (url, scheme))
+    rest = rest.split('/', 1)[0].split('?', 1)[0]
+    bind_part, _, remote_part = rest.partition('@')
+
+    def host_port(part, default_host, default_port, role):
+        try:
+            parsed = urlsplit('//' + part)
+            port = parsed.port
+        except ValueError as err:
+            raise UrlError('URL %r: bad %s address %r (%s)' % (url, role, part, err))
+        host = parsed.hostname or default_host
+        return host, port if port is not None else default_port
+
+    bind = host_port(bind_part, DEFAULT_BIND_HOST, default_bind_port, 'bind')
+    remote = host_port(remote_part, None, default_remote_port, 'remote') if remote_part else (None, None)
+    if bind[1] == 0:
+        raise UrlError('URL %r: bind port 0 is not allowed' % url)
+    return bind, (remote if remote[0] else None)
+
+
+class _Sink:
+    """pymavlink writes packed frames here; the link sends them itself."""
+
+    def write(self, _data):
+        pass
+
+
+class MavlinkLink:
+    """A MAVLink 2 UDP endpoint with handler dispatch and remote learning."""
+
+    def __init__(self, bind, remote=None, system_id=1, component_id=1, learn_remote=True):
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            self.sock.bind(bind)
+        except OSError as err:
+            self.sock.close()
+            raise OSError(err.errno, 'cannot bind UDP %s:%d: %s' % (bind[0], bind[1], err.strerror))
+        self.sock.setblocking(False)
+        self.bind = self.sock.getsockname()
+        self.remote = self._resolve(remote) if remote else None
+        self.learn_remote = learn_remote
+        self.mav = mavlink.MAVLink(_Sink(), srcSystem=system_id, srcComponent=component_id)
+        self.mav.robust_parsing = True
+        self.handlers = {}
+        self.any_handlers = []
+        self.stats = collections.Counter()
+        self.last_receive_s = None
+
+    @staticmethod
+    def _resolve(address):
+        host, port = address
+        try:
+            return socket.gethostbyname(host), int(port)
+        except OSError as err:
+            raise UrlError('cannot resolve host %r: %s' % (host, err))
+
+    @property
+    def system_id(self):
+        return self.mav.srcSystem
+
+    def fileno(self):
+        return self.sock.fileno()
+
+    def on(self, msg_type, handler):
+        """Call handler(msg) for every message of type `msg_type` (e.g. 'HEARTBEAT')."""
+        self.handlers.setdefault(msg_type, []).append(handler)
+
+    def on_any(self, handler):
+        """Call handler(msg) for every valid message (after the typed handlers)."""
+        self.any_handlers.append(handler)
+
+    def send(self, msg):
+        """Pack and send a pymavlink message; False when no remote is known yet."""
+        if self.remote is None:
+            return False
+        return self.send_bytes(msg.pack(self.mav))
+
+    def send_bytes(self, data):
+        if self.remote is None:
+            return False
+        try:
+            self.sock.sendto(data, self.remote)
+        except OSError as err:
+            # ECONNREFUSED: nobody listens there (yet); the link stays up, as UDP does.
+            self.stats['send_errors'] += 1
+            if err.errno not in (errno.ECONNREFUSED, errno.EAGAIN, errno.ENOBUFS, errno.EHOSTUNREACH):
+                raise
+            return False
+        self.stats['sent'] += 1
+        return True
+
+    def receive(self, max_datagrams=256):
+        """Drain up to max_datagrams pending datagrams and dispatch what they hold."""
+        for _ in range(max_datagrams):
+            try:
+                data, sender = self.sock.recvfrom(MAX_DATAGRAM)
+            except (BlockingIOError, InterruptedError):
+                return
+            except ConnectionRefusedError:
+                continue  # an ICMP error for an earlier send, not a datagram
+            self.handle_datagram(data, sender)
+
+    def _reset_parser(self):
+        mav = self.mav
+        mav.buf, mav.buf_index, mav.have_prefix_error = bytearray(), 0, False
+        mav.expected_length = mavlink.HEADER_LEN_V1 + 2
+
+    def handle_datagram(self, data, sender=None):
+        """Parse one datagram on its own: UDP carries whole frames, so a truncated frame
+        at the end of one datagram must not swallow the frames of the next."""
+        self.stats['datagrams'] += 1
+        self._reset_parser()
+        try:
+            messages = self.mav.parse_buffer(data) or []
+        except Exception:  # pymavlink raises assorted errors on hostile bytes
+            self.stats['bad_frames'] += 1
+            return
+        valid = [m for m in messages if m.get_type() != 'BAD_DATA']
+        self.stats['bad_frames'] += len(messages) - len(valid)
+        if not valid:
+            return
+        self.last_receive_s = time.monotonic()
+        if sender is not None and self.learn_remote and sender != self.remote:
+            self.remote = sender  # before dispatch: replies go to whoever asked
+        for msg in valid:
+            self.stats['received'] += 1
+            for handler in self.handlers.get(msg.get_type(), []) + self.any_handlers:
+                self._call(handler, msg)
+
+    def _call(self, handler, msg):
+        try:
+            handler(msg)
+        except Exception:  # a handler bug must not take the receive loop down
+            self.stats['handler_errors'] += 1
+            log.exception('handler %r failed on %s', handler, msg.get_type())
+
+    def close(self):
+        self.sock.close()

@@ -1,0 +1,294 @@
+"""MAVLink I/O of the simulated PX4: receive handlers, command dispatch, the real-time loop.
+
+Binds UDP like PX4 SITL's offboard-API link (local 14580+N, sending to 14540+N, then to
+whoever talks to it), answers every COMMAND_LONG/COMMAND_INT with a COMMAND_ACK, ignores
+what is addressed to another system, and steps the commander at `rate_hz` in real time,
+sending the telemetry streams that are due after each step.
+"""
+
+import logging
+import math
+import select
+import time
+
+from offboard_py.mavlink_link import MavlinkLink, mavlink
+from offboard_py.sim import commander as cmdr
+from offboard_py.sim import mission as missions
+from offboard_py.sim import params as sim_params
+from offboard_py.sim import telemetry
+from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.vehicle import Vehicle
+
+log = logging.getLogger('offboard_py.sim')
+
+# MAV_CMD
+CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND, CMD_NAV_TAKEOFF = 20, 21, 22
+CMD_DO_SET_MODE, CMD_MISSION_START, CMD_COMPONENT_ARM_DISARM = 176, 300, 400
+CMD_GET_HOME_POSITION, CMD_INJECT_FAILURE = 410, 420
+CMD_GET_MESSAGE_INTERVAL, CMD_SET_MESSAGE_INTERVAL, CMD_REQUEST_MESSAGE = 510, 511, 512
+CMD_REQUEST_AUTOPILOT_CAPABILITIES = 520
+FAILURE_TYPE_OK = 0
+
+SITL_LOCAL_PORT, SITL_REMOTE_PORT = 14580, 14540
+DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
+
+
+class SimulatedPx4:
+    def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
+                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=time.monotonic):
+        self.clock = clock
+        self.system_id = instance + 1
+        self.rate_hz = rate_hz
+        now = clock()
+        self.boot_s = now
+        self.params = sim_params.ParamStore(system_id=self.system_id)
+        for text in param_overrides:
+            self.params.parse_override(text)
+        self.frame = LocalFrame(*home)
+        self.vehicle = Vehicle(self.params)
+        self.runner = missions.MissionRunner(self.params, self.frame)
+        self.commander = cmdr.Commander(self.params, self.vehicle, self.runner, self.t(now),
+                                        ready_delay_s=ready_delay_s, rc=rc)
+        local_port = SITL_LOCAL_PORT + instance if local_port is None else local_port
+        remote_port = SITL_REMOTE_PORT + instance if remote_port is None else remote_port
+        self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1)
+        self.mav = self.link.mav
+        self.transfer = missions.MissionTransfer(self.mav, self.link.send, self._on_mission_changed)
+        self.streams = telemetry.Streams(mavlink, self.t(now))
+        self.telemetry = telemetry.TelemetryBuilder(self.mav, self.commander, self.frame, self.params, 0.0)
+        self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0}
+        self._register()
+        self.running = False
+
+    def t(self, now=None):
+        """Seconds since boot: the time base of every pure module."""
+        return (self.clock() if now is None else now) - self.boot_s
+
+    # -- receive ---------------------------------------------------------------------------
+
+    def _register(self):
+        on = self.link.on
+        on('COMMAND_LONG', self._on_command)
+        on('COMMAND_INT', self._on_command)
+        on('SET_MODE', self._on_set_mode)
+        on('SET_POSITION_TARGET_LOCAL_NED', self._on_setpoint)
+        on('PARAM_REQUEST_LIST', self._on_param_request_list)
+        on('PARAM_REQUEST_READ', self._on_param_request_read)
+        on('PARAM_SET', self._on_param_set)
+        on('MISSION_COUNT', self._mission(lambda m, t: self.transfer.on_count(m, t)))
+        on('MISSION_ITEM_INT', self._mission(lambda m, t: self.transfer.on_item(m, t)))
+        on('MISSION_ITEM', self._mission(lambda m, t: self.transfer.on_item(m, t)))
+        on('MISSION_REQUEST_LIST', self._mission(lambda m, t: self.transfer.on_request_list(m)))
+        on('MISSION_REQUEST_INT', self._mission(lambda m, t: self.transfer.on_request(m)))
+        on('MISSION_REQUEST', self._mission(lambda m, t: self.transfer.on_request(m)))
+        on('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.transfer.on_clear_all(m)))
+        on('MISSION_SET_CURRENT', self._mission(lambda m, t: self._set_current(m.seq)))
+        on('TIMESYNC', self._on_timesync)
+
+    def _for_me(self, msg):
+        """PX4 takes messages for its system id or for all (0), on component 1 or all (0)."""
+        if msg.target_system in (0, self.system_id) and getattr(msg, 'target_component', 0) in (0, 1):
+            return True
+        self.counters['ignored_other_system'] += 1
+        return False
+
+    def _mission(self, handler):
+        def handle(msg):
+            if self._for_me(msg):
+                handler(msg, self.t())
+        return handle
+
+    def _ack(self, msg, command, result):
+        self.link.send(self.mav.command_ack_encode(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+
+    def _on_set_mode(self, msg):
+        if msg.target_system != self.system_id:
+            self.counters['ignored_other_system'] += 1
+            return
+        main, sub = (msg.custom_mode >> 16) & 0xFF, (msg.custom_mode >> 24) & 0xFF
+        result = self.commander.request_base_mode(msg.base_mode, main, sub, self.t())
+        self._ack(msg, CMD_DO_SET_MODE, result)  # PX4 answers the SET_MODE message as DO_SET_MODE
+        self._flush_events()
+
+    def _on_command(self, msg):
+        if not self._for_me(msg):
+            return
+        cmd = msg.command
+        if cmd == CMD_DO_SET_MODE:
+            # PX4's MAVLink module acknowledges at once, then the commander gives its own result
+            self._ack(msg, cmd, cmdr.ACCEPTED)
+        result = self._command_result(msg)
+        self._ack(msg, cmd, result)
+        self._flush_events()
+
+    def _command_result(self, msg):
+        c, now = self.commander, self.t()
+        cmd, p1, p2 = msg.command, msg.param1, msg.param2
+        is_int = msg.get_type() == 'COMMAND_INT'
+        if cmd == CMD_DO_SET_MODE:
+            if not all(map(math.isfinite, (p1, p2, msg.param3))):
+                return cmdr.DENIED
+            return c.request_base_mode(int(p1), p2, msg.param3, now)
+        if cmd == CMD_COMPONENT_ARM_DISARM:
+            if p1 not in (0.0, 1.0):
+                return cmdr.DENIED
+            return c.request_arming(p1 == 1.0, p2 == cmdr.FORCE_MAGIC, now)
+        if cmd == CMD_NAV_TAKEOFF:
+            altitude = msg.z if is_int else msg.param7
+            return c.takeoff(altitude, self.frame.alt0, now)
+        if cmd == CMD_NAV_LAND:
+            return c.request_mode('AUTO.LAND', now)
+        if cmd == CMD_NAV_RETURN_TO_LAUNCH:
+            return c.request_mode('AUTO.RTL', now)
+        if cmd == CMD_MISSION_START:
+            if not self.runner.items:
+                return cmdr.DENIED
+            first = int(p1) if math.isfinite(p1) and 0 <= p1 < len(self.runner.items) else 0
+            self.runner.set_current(first)
+            return c.request_mode('AUTO.MISSION', now)
+        if cmd == CMD_SET_MESSAGE_INTERVAL:
+            ok = math.isfinite(p1) and math.isfinite(p2) and self.streams.set_interval(p1, p2, now)
+            return cmdr.ACCEPTED if ok else cmdr.FAILED
+        if cmd == CMD_GET_MESSAGE_INTERVAL:
+            if not math.isfinite(p1):
+                return cmdr.DENIED
+            self.link.send(self.mav.message_interval_encode(int(p1) & 0xFFFF, self.streams.interval_us(p1)))
+            return cmdr.ACCEPTED
+        if cmd in (CMD_REQUEST_MESSAGE, CMD_GET_HOME_POSITION, CMD_REQUEST_AUTOPILOT_CAPABILITIES):
+            msg_id = {CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
+                      CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION}.get(cmd, p1)
+            name = self.streams.names_by_id.get(int(msg_id)) if math.isfinite(msg_id) else None
+            reply = self.telemetry.build(name, now) if name else None
+            if reply is None:
+                return cmdr.FAILED
+            self.link.send(reply)
+            return cmdr.ACCEPTED
+        if cmd == CMD_INJECT_FAILURE:
+            if not self.params['SYS_FAILURE_EN']:
+                return cmdr.DENIED  # PX4: failure injection is off unless SYS_FAILURE_EN=1
+            self.commander.inject_failure('unit %d' % int(p1), int(p2) != FAILURE_TYPE_OK)
+            return cmdr.ACCEPTED
+        return cmdr.UNSUPPORTED
+
+    def _on_setpoint(self, msg):
+        if not self._for_me(msg):
+            return
+        try:
+            sp = cmdr.offboard_setpoint(msg.coordinate_frame, msg.type_mask, (msg.x, msg.y, msg.z),
+                                        (msg.vx, msg.vy, msg.vz), (msg.afx, msg.afy, msg.afz),
+                                        msg.yaw, msg.yaw_rate, self.vehicle.yaw)
+        except cmdr.SetpointRejected as err:
+            self.counters['setpoints_rejected'] += 1
+            if self.counters['setpoints_rejected'] in (1, 10, 100, 1000):
+                log.warning('setpoint rejected (%d so far): %s', self.counters['setpoints_rejected'], err)
+            return
+        self.counters['setpoints_accepted'] += 1
+        self.commander.on_offboard_setpoint(sp, self.t())
+
+    def _param_value(self, name):
+        d = self.params.definition(name)
+        return self.mav.param_value_encode(name.encode('ascii'), sim_params.encode_value(d.type, self.params[name]),
+                                           d.type, len(self.params), self.params.index(name))
+
+    def _on_param_request_list(self, msg):
+        if self._for_me(msg):
+            for name in self.params.names:
+                self.link.send(self._param_value(name))
+
+    def _on_param_request_read(self, msg):
+        if not self._for_me(msg):
+            return
+        name = msg.param_id if msg.param_index < 0 else (
+            self.params.names[msg.param_index] if msg.param_index < len(self.params) else None)
+        if name in self.params.names:
+            self.link.send(self._param_value(name))
+
+    def _on_param_set(self, msg):
+        if not self._for_me(msg):
+            return
+        name = msg.param_id
+        if name not in self.params.names:
+            self._text(cmdr.SEV_WARNING, 'Parameter %s unknown' % name)
+            return
+        d = self.params.definition(name)
+        try:
+            self.params.set(name, sim_params.decode_value(d.type, msg.param_value))
+        except sim_params.ParamRejected as err:
+            self._text(cmdr.SEV_WARNING, str(err))
+        self.link.send(self._param_value(name))  # the value in force, changed or not
+
+    def _on_timesync(self, msg):
+        if msg.tc1 == 0:
+            self.link.send(self.mav.timesync_encode(int(self.clock() * 1e9), msg.ts1))
+
+    def _set_current(self, seq):
+        if self.runner.set_current(seq):
+            self.link.send(self.telemetry.build('MISSION_CURRENT', self.t()))
+
+    def _on_mission_changed(self, mission_type):
+        if mission_type == missions.MISSION_TYPE_MISSION:
+            self.commander.set_mission(self.transfer.mission())
+            self._flush_events()
+
+    # -- send ------------------------------------------------------------------------------
+
+    def _text(self, severity, text):
+        log.info('%s', text)
+        self.link.send(self.telemetry.statustext(severity, text))
+
+    def _flush_events(self):
+        events, self.commander.events = self.commander.events, []
+        now = self.t()
+        for event in events:
+            kind = event[0]
+            if kind == 'mode':
+                log.info('mode %s%s, %s', self.commander.nav_mode,
+                         ' (failsafe)' if self.commander.failsafe else '',
+                         'armed' if self.commander.armed else 'disarmed')
+                self.link.send(self.telemetry.current_mode())
+            elif kind == 'text':
+                self._text(event[1], event[2])
+            elif kind == 'mission_current':
+                self.link.send(self.telemetry.build('MISSION_CURRENT', now))
+            elif kind == 'item_reached':
+                self.link.send(self.mav.mission_item_reached_encode(event[1]))
+
+    def step(self, dt):
+        now = self.t()
+        self.commander.tick(now, dt)
+        self.transfer.tick(now)
+        if not self.telemetry.home_set and self.commander.ready(now):
+            self.telemetry.home_set = True
+        self._flush_events()
+        for name in self.streams.due(now):
+            msg = self.telemetry.build(name, now)
+            if msg is not None:
+                self.link.send(msg)
+
+    # -- the loop --------------------------------------------------------------------------
+
+    def run(self, duration_s=None):
+        """Run in real time until stop() (or for duration_s)."""
+        period = 1.0 / self.rate_hz
+        self.running = True
+        next_s = self.clock()
+        end_s = None if duration_s is None else next_s + duration_s
+        log.info('simulated PX4 sysid %d on udp %s:%d -> %s:%d', self.system_id, self.link.bind[0],
+                 self.link.bind[1], *self.link.remote)
+        while self.running and (end_s is None or self.clock() < end_s):
+            timeout = max(0.0, next_s - self.clock())
+            readable, _, _ = select.select([self.link], [], [], timeout)
+            if readable:
+                self.link.receive()
+            now = self.clock()
+            if now >= next_s:
+                self.step(period)
+                next_s += period
+                if now - next_s > 0.25:  # stalled (suspended, overloaded): resynchronise
+                    next_s = now + period
+
+    def stop(self):
+        self.running = False
+
+    def close(self):
+        self.link.close()

@@ -1,0 +1,78 @@
+"""Command line of the simulated PX4: `sim_px4.py [options] [NAME=VALUE ...]`.
+
+Runs from a shell or as a roslaunch node (roslaunch's `name:=value` arguments are
+dropped, as rospy.myargv() does, without importing rospy).
+"""
+
+import argparse
+import logging
+import signal
+import sys
+
+from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
+from offboard_py.sim.params import ParamRejected
+
+
+def _home(text):
+    try:
+        lat, lon, alt = (float(v) for v in text.split(','))
+    except ValueError:
+        raise argparse.ArgumentTypeError('expected LAT,LON,ALT in degrees and metres, got %r' % text)
+    if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0 and -500.0 <= alt <= 9000.0):
+        raise argparse.ArgumentTypeError('home %r out of range (lat -90..90, lon -180..180, alt -500..9000)' % text)
+    return lat, lon, alt
+
+
+def _instance(text):
+    value = int(text)
+    if not 0 <= value <= 99:
+        raise argparse.ArgumentTypeError('instance must be 0..99, got %d' % value)
+    return value
+
+
+def parser():
+    p = argparse.ArgumentParser(prog='sim_px4.py', description=(
+        'A simulated PX4 multicopter on MAVLink 2 over UDP, as PX4 SITL: system id N+1, '
+        'local port 14580+N, sending to 14540+N and answering whoever talks to it.'))
+    p.add_argument('params', nargs='*', metavar='NAME=VALUE', help='parameter overrides, e.g. COM_OF_LOSS_T=1.0')
+    p.add_argument('-i', '--instance', type=_instance, default=0, help='SITL instance N (default 0)')
+    p.add_argument('--home', type=_home, default=DEFAULT_HOME,
+                   help='home LAT,LON,ALT (deg, deg, m AMSL; default PX4 SITL: %s)' % ','.join(map(str, DEFAULT_HOME)))
+    p.add_argument('--bind', default='127.0.0.1', help='address to bind (default 127.0.0.1: loopback only)')
+    p.add_argument('--local-port', type=int, help='UDP port to bind (default 14580+N)')
+    p.add_argument('--remote-port', type=int, help='UDP port to send to until a client talks (default 14540+N)')
+    p.add_argument('--ready-delay', type=float, default=5.0,
+                   help='seconds after boot before arming is allowed (default 5, as PX4 SITL)')
+    p.add_argument('--rc', action='store_true', help='simulate an RC link (sticks centred)')
+    p.add_argument('--rate', type=float, default=100.0, help='model and controller rate in Hz (default 100)')
+    p.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
+    return p
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    args = parser().parse_args([a for a in argv if ':=' not in a])
+    logging.basicConfig(level=args.log_level.upper(), format='[sim_px4 %d] %%(message)s' % args.instance)
+    if not 10.0 <= args.rate <= 1000.0:
+        logging.error('--rate must be 10..1000 Hz, got %g', args.rate)
+        return 2
+    try:
+        sim = SimulatedPx4(instance=args.instance, home=args.home, bind_host=args.bind,
+                           local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
+                           ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate)
+    except ParamRejected as err:
+        logging.error('%s', err)
+        return 2
+    except OSError as err:
+        logging.error('%s', err)
+        return 1
+
+    def stop(_signum, _frame):
+        sim.stop()
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    try:
+        sim.run()
+    finally:
+        sim.close()
+    return 0

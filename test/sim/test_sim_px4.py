@@ -1,0 +1,400 @@
+"""The simulated PX4 against a plain pymavlink client over UDP on 127.0.0.1 (no ROS).
+
+Every expectation is PX4's behaviour (../shared/reference/px4-behaviour.md), not ours.
+"""
+
+import math
+import os
+import socket
+import time
+
+from conftest import ACCEPTED, DENIED, TEMPORARILY_REJECTED, UNSUPPORTED, px4_modes
+
+FAST = ('--ready-delay', '1')
+
+
+def fly_offboard_to_2m(client):
+    client.start_stream(down=-2.0)
+    time.sleep(0.5)
+    assert client.set_mode('OFFBOARD') == ACCEPTED
+    client.wait_mode('OFFBOARD', 2.0)
+    assert client.arm() == ACCEPTED
+    client.wait_armed(True, 2.0)
+    client.wait_for(lambda: abs(client.z() + 2.0) < 0.1, 20.0, 'z within 0.1 m of -2 m')
+
+
+def test_heartbeat_identity_and_boot_state(start_sim):
+    _, client = start_sim(3)
+    hb = client.wait_heartbeat()
+    src = [m for _, m in client.history if m.get_type() == 'HEARTBEAT'][0]
+    assert src.get_srcSystem() == 4 and src.get_srcComponent() == 1
+    assert (hb.type, hb.autopilot, hb.mavlink_version) == (2, 12, 3)
+    assert hb.custom_mode == 50593792, 'PX4 SITL boots in AUTO.LOITER'
+    assert hb.base_mode == 1 | 4 | 8 | 16, 'AUTO modes: custom, auto, guided, stabilize; disarmed'
+    assert hb.system_status == 3, 'STANDBY'
+    t0 = time.monotonic()
+    count0 = sum(1 for _, m in client.history if m.get_type() == 'HEARTBEAT')
+    time.sleep(3.0)
+    count = sum(1 for t, m in client.history if m.get_type() == 'HEARTBEAT' and t >= t0) - 0
+    assert 2 <= count <= 4, 'HEARTBEAT is 1 Hz, saw %d in 3 s (had %d)' % (count, count0)
+
+
+def test_streams_at_px4_onboard_rates(start_sim):
+    _, client = start_sim(4, *FAST)
+    time.sleep(1.0)
+    t0 = time.monotonic()
+    time.sleep(2.0)
+    rates = {}
+    for t, m in list(client.history):
+        if t >= t0:
+            rates[m.get_type()] = rates.get(m.get_type(), 0) + 0.5
+    for name, hz in (('ATTITUDE_QUATERNION', 50), ('GLOBAL_POSITION_INT', 50), ('LOCAL_POSITION_NED', 30),
+                     ('HIGHRES_IMU', 50), ('ALTITUDE', 10), ('EXTENDED_SYS_STATE', 5)):
+        assert abs(rates.get(name, 0) - hz) <= hz * 0.15 + 0.5, '%s at %.1f Hz, PX4 sends %d Hz' % (
+            name, rates.get(name, 0), hz)
+    # SET_MESSAGE_INTERVAL: LOCAL_POSITION_NED to 5 Hz; HEARTBEAT cannot be changed (FAILED, as PX4)
+    assert client.command(511, 32, 200000)[0] == ACCEPTED
+    assert client.command(511, 0, 100000)[0] == 4
+    t1 = time.monotonic()
+    time.sleep(2.0)
+    n = sum(1 for t, m in list(client.history) if t >= t1 + 0.2 and m.get_type() == 'LOCAL_POSITION_NED')
+    assert 7 <= n <= 11, 'LOCAL_POSITION_NED at 5 Hz should give ~9 in 1.8 s, got %d' % n
+    # REQUEST_MESSAGE: one AUTOPILOT_VERSION
+    assert client.command(512, 148)[0] == ACCEPTED
+    client.wait_for(lambda: client.latest.get('AUTOPILOT_VERSION'), 2.0, 'AUTOPILOT_VERSION')
+
+
+def test_offboard_refusals_then_acceptance(start_sim):
+    _, client = start_sim(5, *FAST)
+    time.sleep(1.2)
+    # disarmed: OFFBOARD is accepted even with no setpoints (current PX4) ...
+    assert client.set_mode('OFFBOARD') == ACCEPTED
+    client.wait_mode('OFFBOARD', 2.0)
+    # ... but arming there without the offboard signal is refused
+    assert client.arm() == TEMPORARILY_REJECTED
+    assert not client.armed()
+    # armed (in Hold, on the ground) and no setpoints: OFFBOARD is refused
+    assert client.set_mode('AUTO.LOITER') == ACCEPTED
+    assert client.arm() == ACCEPTED
+    assert client.set_mode('OFFBOARD') == TEMPORARILY_REJECTED
+    time.sleep(0.3)
+    assert client.current_mode() == 'AUTO.LOITER'
+    # after streaming: accepted
+    client.start_stream(down=-2.0)
+    time.sleep(0.3)
+    assert client.set_mode('OFFBOARD') == ACCEPTED
+    client.wait_mode('OFFBOARD', 1.0)
+
+
+def test_command_long_set_mode_gets_two_acks(start_sim):
+    _, client = start_sim(6, *FAST)
+    results = client.command(176, 1, 4, 4, acks=2)  # AUTO.MISSION: accepted while disarmed
+    assert results == [ACCEPTED, ACCEPTED]
+    results = client.command(176, 1, 4, 1, acks=2)  # AUTO.READY is refused by the commander
+    assert results == [ACCEPTED, TEMPORARILY_REJECTED]
+
+
+def test_offboard_takeoff_to_2m_and_hold(start_sim):
+    _, client = start_sim(7, *FAST)
+    time.sleep(1.2)
+    armed_at = time.monotonic()
+    fly_offboard_to_2m(client)
+    climb_s = time.monotonic() - armed_at
+    samples = []
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 3.0:
+        samples.append(client.z())
+        time.sleep(0.05)
+    highest = min(z for t, m in client.history if m.get_type() == 'LOCAL_POSITION_NED' for z in (m.z,))
+    assert highest >= -2.2, 'overshoot: reached z = %.2f m (limit 0.2 m over 2 m)' % highest
+    assert all(abs(z + 2.0) <= 0.1 for z in samples), 'hold left 2 +- 0.1 m: %s' % samples
+    assert climb_s < 15.0
+    ext = client.latest['EXTENDED_SYS_STATE']
+    assert ext.landed_state == 2, 'IN_AIR'
+    assert client.latest['HEARTBEAT'].base_mode == 1 | 16 | 128, 'armed OFFBOARD = 145 (guided=false)'
+    assert client.latest['HEARTBEAT'].system_status == 4, 'ACTIVE'
+
+
+def test_failsafe_without_rc_is_return_and_lands(start_sim):
+    _, client = start_sim(8, *FAST)
+    time.sleep(1.2)
+    fly_offboard_to_2m(client)
+    client.stop_stream()
+    last = client.last_setpoint_s
+    client.wait_for(lambda: client.current_mode() == 'AUTO.RTL', 2.0, 'AUTO.RTL after the stream stops')
+    changed = next(t for t, m in client.history if m.get_type() == 'CURRENT_MODE'
+                   and px4_modes.decode(m.custom_mode) == 'AUTO.RTL')
+    assert changed - last <= 0.5 + 0.2, 'failsafe took %.2f s (COM_OF_LOSS_T 0.5 + 0.2)' % (changed - last)
+    cm = client.latest['CURRENT_MODE']
+    assert px4_modes.decode(cm.intended_custom_mode) == 'OFFBOARD', 'the intended mode stays OFFBOARD'
+    client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == 5, 2.0, 'CRITICAL while in failsafe')
+    # next to home: it descends at once, under control, lands and disarms
+    zs = []
+    client.wait_for(lambda: zs.append(client.latest['LOCAL_POSITION_NED'].vz) or not client.armed(), 20.0,
+                    'disarm after landing')
+    assert max(zs) <= 0.7 + 0.3, 'descended at %.2f m/s (land speed 0.7)' % max(zs)
+    # after the disarm the vehicle is back in the mode the user chose, and stays there
+    client.wait_mode('OFFBOARD', 2.0)
+    client.start_stream(down=-2.0)
+    time.sleep(3.0)
+    assert not client.armed(), 'the vehicle must not arm by itself'
+
+
+def test_failsafe_with_rc_holds_position(start_sim):
+    _, client = start_sim(9, '--rc', *FAST)
+    time.sleep(1.2)
+    fly_offboard_to_2m(client)
+    client.stop_stream()
+    last = client.last_setpoint_s
+    client.wait_for(lambda: client.current_mode() == 'POSCTL', 2.0, 'POSCTL (COM_OBL_RC_ACT 0) with RC')
+    changed = next(t for t, m in client.history if m.get_type() == 'CURRENT_MODE'
+                   and px4_modes.decode(m.custom_mode) == 'POSCTL')
+    assert changed - last <= 0.7
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 3.0:
+        assert abs(client.z() + 2.0) < 0.2, 'POSCTL should hold altitude, z = %.2f' % client.z()
+        time.sleep(0.1)
+    assert client.armed()
+
+
+def test_arming_ack_codes(start_sim):
+    _, client = start_sim(10)  # default ready delay: 5 s, as PX4 SITL
+    assert client.arm() == TEMPORARILY_REJECTED, 'not ready right after boot'
+    client.wait_for(lambda: client.arm() == ACCEPTED, 8.0, 'arming accepted once ready')
+    assert client.arm() == ACCEPTED, 'arming while armed is accepted'
+    assert client.command(22, 0, 0, 0, math.nan, math.nan, math.nan, math.nan)[0] == ACCEPTED
+    client.wait_for(lambda: client.z() < -1.0, 10.0, 'climbing in AUTO.TAKEOFF')
+    assert client.arm(False) == DENIED, 'disarming in the air is denied'
+    assert client.armed()
+    assert client.arm(True) == ACCEPTED
+
+
+def test_preflight_auto_disarm(start_sim):
+    _, client = start_sim(11, 'COM_DISARM_PRFLT=2', *FAST)
+    time.sleep(1.2)
+    t0 = time.monotonic()
+    assert client.arm() == ACCEPTED
+    client.wait_armed(True, 2.0)  # HEARTBEAT is 1 Hz: the disarm shows within 1 s of happening
+    client.wait_armed(False, 4.0)
+    assert 1.9 <= time.monotonic() - t0 <= 3.5, 'COM_DISARM_PRFLT=2: disarmed after %.1f s' % (
+        time.monotonic() - t0)
+
+
+def test_injected_failure_blocks_arming(start_sim):
+    _, client = start_sim(12, 'SYS_FAILURE_EN=1', *FAST)
+    time.sleep(1.2)
+    assert client.command(420, 0, 1)[0] == ACCEPTED  # gyro off
+    assert client.arm() == TEMPORARILY_REJECTED
+    assert client.command(420, 0, 0)[0] == ACCEPTED  # back to OK
+    assert client.arm() == ACCEPTED
+
+
+def test_takeoff_and_land_commands(start_sim):
+    _, client = start_sim(13, *FAST)
+    time.sleep(1.2)
+    assert client.arm() == ACCEPTED
+    assert client.command(22, 0, 0, 0, math.nan, math.nan, math.nan, math.nan)[0] == ACCEPTED
+    client.wait_mode('AUTO.TAKEOFF', 1.0)
+    client.wait_mode('AUTO.LOITER', 15.0)
+    assert abs(client.z() + 2.5) < 0.35, 'MIS_TAKEOFF_ALT is 2.5 m, z = %.2f' % client.z()
+    assert client.command(21, 0, 0, 0, math.nan, math.nan, math.nan, math.nan)[0] == ACCEPTED
+    client.wait_mode('AUTO.LAND', 1.0)
+    client.wait_armed(False, 15.0)
+    assert client.latest['EXTENDED_SYS_STATE'].landed_state == 1
+    client.wait_mode('AUTO.LOITER', 2.0)  # back to the user's mode before the landing
+    assert client.command(31000)[0] == UNSUPPORTED
+
+
+def read_param(client, name, timeout_s=2.0):
+    client.latest.pop('PARAM_VALUE', None)
+    client.send(client.mav.param_request_read_encode(client.target, 1, name.encode(), -1))
+    return client.wait_for(lambda: client.latest.get('PARAM_VALUE') if client.latest.get('PARAM_VALUE')
+                           and client.latest['PARAM_VALUE'].param_id == name else None, timeout_s, 'PARAM_VALUE ' + name)
+
+
+def test_param_get_set_float_and_int(start_sim):
+    import struct
+    _, client = start_sim(14, *FAST)
+    value = read_param(client, 'MIS_TAKEOFF_ALT')
+    assert value.param_type == 9 and value.param_value == 2.5
+    client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 3.5, 9))
+    client.wait_for(lambda: read_param(client, 'MIS_TAKEOFF_ALT').param_value == 3.5, 3.0, 'MIS_TAKEOFF_ALT=3.5')
+    value = read_param(client, 'COM_OBL_RC_ACT')
+    assert value.param_type == 6
+    assert struct.unpack('<i', struct.pack('<f', value.param_value))[0] == 0, 'INT32 is sent bytewise'
+    wire = struct.unpack('<f', struct.pack('<i', 4))[0]
+    client.send(client.mav.param_set_encode(client.target, 1, b'COM_OBL_RC_ACT', wire, 6))
+    client.wait_for(lambda: struct.unpack('<i', struct.pack('<f', read_param(client, 'COM_OBL_RC_ACT').param_value))[0]
+                    == 4, 3.0, 'COM_OBL_RC_ACT=4')
+    # out of range: refused, the value in force is echoed
+    client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 1000.0, 9))
+    time.sleep(0.3)
+    assert read_param(client, 'MIS_TAKEOFF_ALT').param_value == 3.5
+    # the whole list
+    names = set()
+    client.send(client.mav.param_request_list_encode(client.target, 1))
+    client.wait_for(lambda: [names.add(m.param_id) for _, m in list(client.history) if m.get_type() == 'PARAM_VALUE']
+                    and len(names) >= client.latest['PARAM_VALUE'].param_count, 3.0, 'the full parameter list')
+    assert {'MAV_TYPE', 'COM_OF_LOSS_T', 'COM_DISARM_PRFLT', 'NAV_ACC_RAD', 'MPC_Z_VEL_MAX_UP'} <= names
+
+
+def upload(client, items, use_int=True):
+    """Upload (command, frame, params, lat, lon, alt) tuples; return the MISSION_ACK type."""
+    start = len(client.history)
+    client.send(client.mav.mission_count_encode(client.target, 1, len(items), 0))
+    sent = set()
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline:
+        for _, m in list(client.history[start:]):
+            if m.get_type() in ('MISSION_REQUEST_INT', 'MISSION_REQUEST') and m.seq not in sent:
+                sent.add(m.seq)
+                cmd, frame, params, lat, lon, alt = items[m.seq]
+                if use_int:
+                    client.send(client.mav.mission_item_int_encode(
+                        client.target, 1, m.seq, frame, cmd, 0, 1, *params, int(lat * 1e7), int(lon * 1e7), alt))
+                else:
+                    client.send(client.mav.mission_item_encode(
+                        client.target, 1, m.seq, frame - 3 if frame == 6 else frame, cmd, 0, 1, *params, lat, lon, alt))
+            if m.get_type() == 'MISSION_ACK':
+                return m.type
+        time.sleep(0.02)
+    raise AssertionError('no MISSION_ACK within 10 s')
+
+
+def download(client):
+    start = len(client.history)
+    client.send(client.mav.mission_request_list_encode(client.target, 1, 0))
+    count = client.wait_for(lambda: next((m for _, m in client.history[start:] if m.get_type() == 'MISSION_COUNT'),
+                                         None), 2.0, 'MISSION_COUNT').count
+    items = []
+    for seq in range(count):
+        client.send(client.mav.mission_request_int_encode(client.target, 1, seq, 0))
+        items.append(client.wait_for(lambda: next((m for _, m in client.history[start:]
+                                                   if m.get_type() == 'MISSION_ITEM_INT' and m.seq == seq), None),
+                                     2.0, 'MISSION_ITEM_INT %d' % seq))
+    client.send(client.mav.mission_ack_encode(client.target, 1, 0, 0))
+    return items
+
+
+HOME = (47.397742, 8.545594)
+M_PER_DEG = 111194.93
+
+
+def offset(north, east):
+    return HOME[0] + north / M_PER_DEG, HOME[1] + east / (M_PER_DEG * math.cos(math.radians(HOME[0])))
+
+
+def square_mission():
+    wps = [offset(n, e) for n, e in ((10, 0), (10, 10), (0, 10), (0, 0))]
+    items = [(22, 6, (0, 0, 0, math.nan), 0.0, 0.0, 5.0)]
+    items += [(16, 6, (0, 1.0, 0, math.nan), lat, lon, 5.0) for lat, lon in wps]
+    items += [(21, 6, (0, 0, 0, math.nan), wps[-1][0], wps[-1][1], 0.0)]
+    return items
+
+
+def test_mission_upload_download_clear(start_sim):
+    _, client = start_sim(15, *FAST)
+    items = square_mission()
+    assert upload(client, items) == 0
+    got = download(client)
+    assert [m.command for m in got] == [i[0] for i in items]
+    assert abs(got[2].x * 1e-7 - items[2][3]) < 1e-6 and got[2].z == 5.0
+    # the legacy MISSION_ITEM protocol works too
+    assert upload(client, items[:3], use_int=False) == 0
+    assert len(download(client)) == 3
+    start = len(client.history)
+    client.send(client.mav.mission_clear_all_encode(client.target, 1, 0))
+    ack = client.wait_for(lambda: next((m for _, m in client.history[start:] if m.get_type() == 'MISSION_ACK'), None),
+                          2.0, 'MISSION_ACK after clear')
+    assert ack.type == 0
+    assert download(client) == []
+
+
+def test_four_waypoint_mission_flown_and_landed(start_sim):
+    _, client = start_sim(16, *FAST)
+    time.sleep(1.2)
+    assert upload(client, square_mission()) == 0
+    assert client.set_mode('AUTO.MISSION') == ACCEPTED
+    assert client.arm() == ACCEPTED
+    client.wait_for(lambda: {m.seq for _, m in list(client.history) if m.get_type() == 'MISSION_ITEM_REACHED'}
+                    >= {0, 1, 2, 3, 4}, 60.0, 'items 0..4 reached')
+    client.wait_armed(False, 30.0)
+    pos = client.latest['LOCAL_POSITION_NED']
+    assert abs(pos.x) < 1.5 and abs(pos.y) < 1.5 and abs(pos.z) < 0.05, 'landed at the last waypoint (home)'
+    reached = [m.seq for _, m in client.history if m.get_type() == 'MISSION_ITEM_REACHED']
+    assert reached[:6] == [0, 1, 2, 3, 4, 5][:len(reached[:6])]
+
+
+def test_two_instances_side_by_side(start_sim):
+    _, first = start_sim(17, *FAST)
+    _, second = start_sim(18, *FAST)
+    src = {c.target: [m.get_srcSystem() for _, m in c.history if m.get_type() == 'HEARTBEAT'][0]
+           for c in (first, second)}
+    assert src == {18: 18, 19: 19}
+    time.sleep(1.2)
+    assert first.arm() == ACCEPTED
+    time.sleep(1.5)
+    assert first.armed() and not second.armed()
+
+
+def test_garbage_and_other_systems_change_nothing(start_sim):
+    sim, client = start_sim(19, *FAST)
+    time.sleep(1.2)
+    raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rng = __import__('random').Random(7)
+    for i in range(2000):
+        raw.sendto(bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 300))), ('127.0.0.1', 14580 + 19))
+        if i % 50 == 0:
+            time.sleep(0.005)  # paced, so the kernel does not drop it before the parser sees it
+    for magic in (0xFD, 0xFE):
+        for i in range(200):
+            body = bytes(rng.getrandbits(8) for _ in range(rng.randint(5, 60)))
+            raw.sendto(bytes([magic]) + body, ('127.0.0.1', 14580 + 19))
+            if i % 50 == 0:
+                time.sleep(0.005)
+    acks_before = len(client.acks)
+    client.send(client.mav.command_long_encode(42, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0))  # arm system 42
+    client.send(client.mav.set_mode_encode(42, 1, px4_modes.encode('OFFBOARD')))
+    client.send(client.mav.command_long_encode(21, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0))  # not us either (we are 20)
+    time.sleep(1.5)
+    assert len(client.acks) == acks_before, 'messages for other systems must not be answered'
+    assert not client.armed() and client.mode() == 'AUTO.LOITER'
+    assert sim.proc.poll() is None, 'the simulator died:\n' + '\n'.join(sim.lines)
+    assert client.arm() == ACCEPTED, 'still answering its own system id'
+
+
+def test_bad_setpoints_are_rejected(start_sim):
+    _, client = start_sim(20, *FAST)
+    time.sleep(1.2)
+    bad = [client.setpoint(0, 0, -2, frame=7),                      # LOCAL_OFFSET_NED
+           client.setpoint(0, 0, -2, type_mask=0x9F8 | 512),        # FORCE
+           client.setpoint(0, 0, -2, type_mask=0x1FF),              # nothing used
+           client.setpoint(0, 0, math.inf)]
+    for _ in range(30):
+        for msg in bad:
+            client.send(msg)
+        time.sleep(0.05)
+    assert client.set_mode('OFFBOARD') == ACCEPTED  # disarmed: accepted anyway
+    assert client.arm() == TEMPORARILY_REJECTED, 'rejected setpoints must not count as an offboard signal'
+
+
+def test_rejects_bad_command_line():
+    import subprocess
+    import sys
+    from conftest import REPO
+    script = os.path.join(REPO, 'scripts', 'sim_px4.py')
+    env = dict(os.environ, PYTHONPATH=os.path.join(REPO, 'src'))
+    for args, words in ((['NOT_A_PARAM=1'], 'unknown parameter'), (['COM_OF_LOSS_T=-3'], 'COM_OF_LOSS_T'),
+                        (['--home', '95,0,0'], 'home'), (['-i', '-1'], 'instance')):
+        out = subprocess.run([sys.executable, script] + args, env=env, capture_output=True, text=True, timeout=20)
+        assert out.returncode != 0, args
+        assert words in out.stdout + out.stderr, (args, out.stdout + out.stderr)
+        assert 'Traceback' not in out.stderr
+
+
+def test_ack_is_addressed_to_the_sender(start_sim):
+    """COMMAND_ACK goes back to the sender's system and component (and unknown commands are UNSUPPORTED)."""
+    _, client = start_sim(21, *FAST)
+    client.send(client.mav.command_long_encode(client.target, 1, 31000, 0, 0, 0, 0, 0, 0, 0, 0))
+    ack = client.wait_for(lambda: next((a for _, a in client.acks if a.command == 31000), None), 2.0, 'ACK')
+    assert (ack.target_system, ack.target_component) == (255, 190)
