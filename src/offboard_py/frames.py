@@ -1,12 +1,21 @@
 """Frame conversions between ROS (ENU world, FLU body) and PX4/MAVLink (NED world, FRD body).
 
-One place for every convention the bridge and the simulated PX4 share, as mavros does it:
-positions and vectors swap x/y and negate z; an orientation q_ned_frd is
-q(ENU<-NED) * q_enu_flu * q(FLU<-FRD); yaw_ned = pi/2 - yaw_enu. Quaternions are
-(x, y, z, w) tuples as in ROS messages. Pure functions, no ROS imports.
+One place for every convention the bridge uses, as mavros (ftf) does it:
+- a world vector (position, velocity) swaps x and y and negates z: ENU <-> NED;
+- a body vector (rates, accelerations) negates y and z: FLU <-> FRD;
+- an orientation is q_ned_frd = q_NED_ENU * q_enu_flu * q_FLU_FRD (and back);
+- yaw_ned = pi/2 - yaw_enu, wrapped.
+Quaternions are (x, y, z, w) tuples, the order of ROS messages. MAVLink's
+ATTITUDE_QUATERNION order (w, x, y, z) is converted at the edge. Pure functions.
 """
 
 import math
+
+_SQRT_HALF = math.sqrt(0.5)
+# Rotation taking ENU to NED (and back: it is its own inverse up to sign): 180 deg about (1, 1, 0)/sqrt(2).
+Q_ENU_NED = (_SQRT_HALF, _SQRT_HALF, 0.0, 0.0)
+# Rotation taking FLU to FRD: 180 deg about x.
+Q_FLU_FRD = (1.0, 0.0, 0.0, 0.0)
 
 
 def wrap_pi(angle):
@@ -17,6 +26,64 @@ def wrap_pi(angle):
     return wrapped - math.pi
 
 
+def enu_to_ned(x, y, z):
+    return y, x, -z
+
+
+ned_to_enu = enu_to_ned  # the same swap both ways
+
+
+def flu_to_frd(x, y, z):
+    return x, -y, -z
+
+
+frd_to_flu = flu_to_frd
+
+
+def yaw_enu_to_ned(yaw):
+    return wrap_pi(math.pi / 2.0 - yaw)
+
+
+yaw_ned_to_enu = yaw_enu_to_ned
+
+
+def quaternion_multiply(a, b):
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)
+
+
 def quaternion_from_yaw(yaw):
     """Rotation of `yaw` rad about z, as (x, y, z, w)."""
     return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+
+
+def quaternion_yaw(q):
+    """Yaw (rad) of a quaternion, ZYX convention. An all-zero quaternion gives 0, as in mavros."""
+    x, y, z, w = q
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def orientation_enu_to_ned(q_enu_flu):
+    """ROS orientation (ENU world, FLU body) -> PX4 orientation (NED world, FRD body)."""
+    return quaternion_multiply(quaternion_multiply(Q_ENU_NED, q_enu_flu), Q_FLU_FRD)
+
+
+orientation_ned_to_enu = orientation_enu_to_ned  # both fixed rotations are their own inverses
+
+
+def rotate(q, v):
+    """Rotate vector v by quaternion q (x, y, z, w)."""
+    qv = quaternion_multiply(quaternion_multiply(q, (v[0], v[1], v[2], 0.0)), (-q[0], -q[1], -q[2], q[3]))
+    return qv[0], qv[1], qv[2]
+
+
+def wxyz_to_xyzw(w, x, y, z):
+    return x, y, z, w
+
+
+def xyzw_to_wxyz(q):
+    return q[3], q[0], q[1], q[2]

@@ -15,6 +15,7 @@ import collections
 import errno
 import logging
 import socket
+import threading
 import time
 from urllib.parse import urlsplit
 
@@ -85,9 +86,11 @@ class MavlinkLink:
         self.remote = self._resolve(remote) if remote else None
         self.learn_remote = learn_remote
         self.mav = mavlink.MAVLink(_Sink(), srcSystem=system_id, srcComponent=component_id)
+        self._send_lock = threading.Lock()  # pymavlink's sequence counter is not thread-safe
         self.mav.robust_parsing = True
         self.handlers = {}
         self.any_handlers = []
+        self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
         self.stats = collections.Counter()
         self.last_receive_s = None
 
@@ -118,7 +121,9 @@ class MavlinkLink:
         """Pack and send a pymavlink message; False when no remote is known yet."""
         if self.remote is None:
             return False
-        return self.send_bytes(msg.pack(self.mav))
+        with self._send_lock:
+            data = msg.pack(self.mav)
+        return self.send_bytes(data)
 
     def send_bytes(self, data):
         if self.remote is None:
@@ -167,6 +172,8 @@ class MavlinkLink:
         self.last_receive_s = time.monotonic()
         if sender is not None and self.learn_remote and sender != self.remote:
             self.remote = sender  # before dispatch: replies go to whoever asked
+        if self.on_datagram is not None:
+            self.on_datagram(data)
         for msg in valid:
             self.stats['received'] += 1
             for handler in self.handlers.get(msg.get_type(), []) + self.any_handlers:

@@ -10,6 +10,7 @@ import signal
 import sys
 
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
+from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.params import ParamRejected
 
 
@@ -21,6 +22,16 @@ def _home(text):
     if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0 and -500.0 <= alt <= 9000.0):
         raise argparse.ArgumentTypeError('home %r out of range (lat -90..90, lon -180..180, alt -500..9000)' % text)
     return lat, lon, alt
+
+
+def _spawn(text):
+    try:
+        x, y = (float(v) for v in text.split(','))
+    except ValueError:
+        raise argparse.ArgumentTypeError('expected X,Y in metres, got %r' % text)
+    if not (abs(x) <= 10000.0 and abs(y) <= 10000.0):
+        raise argparse.ArgumentTypeError('spawn %r: more than 10 km from home' % text)
+    return x, y
 
 
 def _instance(text):
@@ -38,6 +49,9 @@ def parser():
     p.add_argument('-i', '--instance', type=_instance, default=0, help='SITL instance N (default 0)')
     p.add_argument('--home', type=_home, default=DEFAULT_HOME,
                    help='home LAT,LON,ALT (deg, deg, m AMSL; default PX4 SITL: %s)' % ','.join(map(str, DEFAULT_HOME)))
+    p.add_argument('--spawn', type=_spawn, default=(0.0, 0.0), metavar='X,Y',
+                   help='start position in the world, ENU metres from the home above (as x/y in PX4 launch files); '
+                        'the vehicle\'s own local frame and home start there')
     p.add_argument('--bind', default='127.0.0.1', help='address to bind (default 127.0.0.1: loopback only)')
     p.add_argument('--local-port', type=int, help='UDP port to bind (default 14580+N)')
     p.add_argument('--remote-port', type=int, help='UDP port to send to until a client talks (default 14540+N)')
@@ -57,7 +71,8 @@ def main(argv=None):
         logging.error('--rate must be 10..1000 Hz, got %g', args.rate)
         return 2
     try:
-        sim = SimulatedPx4(instance=args.instance, home=args.home, bind_host=args.bind,
+        home = LocalFrame(*args.home).to_global(args.spawn[1], args.spawn[0], 0.0)
+        sim = SimulatedPx4(instance=args.instance, home=home, bind_host=args.bind,
                            local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
                            ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate)
     except ParamRejected as err:

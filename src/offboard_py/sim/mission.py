@@ -41,10 +41,15 @@ Item = namedtuple('Item', 'frame command autocontinue param1 param2 param3 param
 Item.__doc__ = 'A stored item: x/y are degrees (global frames) or metres (local), z metres.'
 
 
+def _int_scale(frame):
+    """MISSION_ITEM_INT x/y units: degrees * 1e7 (global), metres * 1e4 (local), raw (MISSION)."""
+    return {FRAME_LOCAL_NED: 1e4, FRAME_MISSION: 1.0}.get(frame, 1e7)
+
+
 def item_from_message(msg):
-    """An Item from MISSION_ITEM_INT (x/y in 1e-7 deg) or MISSION_ITEM (floats)."""
-    scaled = msg.get_type() == 'MISSION_ITEM_INT' and msg.frame not in (FRAME_LOCAL_NED, FRAME_MISSION)
-    x, y = (msg.x * 1e-7, msg.y * 1e-7) if scaled else (float(msg.x), float(msg.y))
+    """An Item from MISSION_ITEM_INT (scaled integers) or MISSION_ITEM (floats)."""
+    scale = _int_scale(msg.frame) if msg.get_type() == 'MISSION_ITEM_INT' else 1.0
+    x, y = float(msg.x) / scale, float(msg.y) / scale
     return Item(msg.frame, msg.command, msg.autocontinue, msg.param1, msg.param2, msg.param3, msg.param4,
                 x, y, float(msg.z))
 
@@ -141,8 +146,8 @@ class MissionTransfer:
         it = items[msg.seq]
         current = int(msg.mission_type == MISSION_TYPE_MISSION and msg.seq == self.current)
         if msg.get_type() == 'MISSION_REQUEST_INT':
-            scaled = it.frame not in (FRAME_LOCAL_NED, FRAME_MISSION)
-            x, y = (int(round(it.x * 1e7)), int(round(it.y * 1e7))) if scaled else (int(it.x), int(it.y))
+            scale = _int_scale(it.frame)
+            x, y = int(round(it.x * scale)), int(round(it.y * scale))
             out = self.mav.mission_item_int_encode(partner[0], partner[1], msg.seq, it.frame, it.command, current,
                                                    it.autocontinue, it.param1, it.param2, it.param3, it.param4,
                                                    x, y, it.z, msg.mission_type)

@@ -1,0 +1,23 @@
+"""mavros global_position: ~global_position/global (NavSatFix) from GLOBAL_POSITION_INT.
+
+Altitude is AMSL as PX4 sends it: real mavros converts to height above the WGS-84
+ellipsoid with a geoid model (EGM96), which this bridge does not carry (see README).
+"""
+
+import rospy
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+
+class GlobalPosition:
+    def __init__(self, bridge):
+        self.frame_id = bridge.cfg['global_position/frame_id']
+        self.pub = rospy.Publisher('~global_position/global', NavSatFix, queue_size=10)
+        bridge.on('GLOBAL_POSITION_INT', self._on_global_position)
+
+    def _on_global_position(self, gp):
+        fix = NavSatFix()
+        fix.header.stamp, fix.header.frame_id = rospy.Time.now(), self.frame_id
+        fix.status.status, fix.status.service = NavSatStatus.STATUS_FIX, NavSatStatus.SERVICE_GPS
+        fix.latitude, fix.longitude, fix.altitude = gp.lat * 1e-7, gp.lon * 1e-7, gp.alt * 1e-3
+        fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+        self.pub.publish(fix)

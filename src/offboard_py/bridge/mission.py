@@ -1,0 +1,233 @@
+"""mavros waypoint plugin: ~mission/push, ~mission/pull, ~mission/clear, ~mission/waypoints, ~mission/reached.
+
+Transfers use the MAVLink mission protocol with MISSION_ITEM_INT (answering a legacy
+MISSION_REQUEST with MISSION_ITEM), one at a time, each step retried on timeout.
+~mission/waypoints is latched and republished after every transfer (also when empty)
+and when MISSION_CURRENT moves; the mission is pulled once after the connection.
+A transfer runs in the service thread; the receive thread hands it the messages.
+"""
+
+import queue
+import threading
+import time
+
+import rospy
+from mavros_msgs.msg import Waypoint, WaypointList, WaypointReached
+from mavros_msgs.srv import (WaypointClear, WaypointClearResponse, WaypointPull, WaypointPullResponse, WaypointPush,
+                             WaypointPushResponse)
+
+GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}
+FRAME_LOCAL_SCALE = 1e4            # MISSION_ITEM_INT: local x/y are metres * 1e4
+STEP_TIMEOUT_S, STEP_RETRIES = 1.0, 3
+PULL_AFTER_CONNECT_S = 2.0
+MISSION_ACCEPTED = 0
+TRANSFER_MESSAGES = ('MISSION_COUNT', 'MISSION_ITEM_INT', 'MISSION_ITEM', 'MISSION_REQUEST_INT', 'MISSION_REQUEST',
+                     'MISSION_ACK')
+
+
+PROGRESS = object()  # returned by a step's accept(): the peer is moving on, restart the timeout
+
+
+class TransferError(Exception):
+    pass
+
+
+def waypoint_from_item(item):
+    wp = Waypoint()
+    wp.frame, wp.command, wp.is_current, wp.autocontinue = item.frame, item.command, bool(item.current), \
+        bool(item.autocontinue)
+    wp.param1, wp.param2, wp.param3, wp.param4 = item.param1, item.param2, item.param3, item.param4
+    if item.get_type() == 'MISSION_ITEM_INT':
+        scale = 1e-7 if item.frame in GLOBAL_FRAMES else 1.0 / FRAME_LOCAL_SCALE
+        wp.x_lat, wp.y_long = item.x * scale, item.y * scale
+    else:
+        wp.x_lat, wp.y_long = item.x, item.y
+    wp.z_alt = item.z
+    return wp
+
+
+class Mission:
+    def __init__(self, bridge):
+        self.bridge = bridge
+        self.waypoints = []
+        self.current_seq = 0
+        self.transfer_lock = threading.Lock()
+        self.inbox = None  # a Queue while a transfer runs
+        self.waypoints_pub = rospy.Publisher('~mission/waypoints', WaypointList, queue_size=2, latch=True)
+        self.reached_pub = rospy.Publisher('~mission/reached', WaypointReached, queue_size=10)
+        self.services = [rospy.Service('~mission/push', WaypointPush, self._push),
+                         rospy.Service('~mission/pull', WaypointPull, self._pull),
+                         rospy.Service('~mission/clear', WaypointClear, self._clear)]
+        for name in TRANSFER_MESSAGES:
+            bridge.on(name, self._to_transfer)
+        bridge.on('MISSION_CURRENT', self._on_current)
+        bridge.on('MISSION_ITEM_REACHED', self._on_reached)
+        bridge.on_connection(self._on_connection)
+        self._publish()
+
+    # -- receive thread ----------------------------------------------------------------------
+
+    def _to_transfer(self, msg):
+        inbox = self.inbox
+        if inbox is not None and getattr(msg, 'mission_type', 0) == 0:
+            inbox.put(msg)
+
+    def _on_current(self, msg):
+        if msg.seq != self.current_seq:
+            self.current_seq = msg.seq
+            for i, wp in enumerate(self.waypoints):
+                wp.is_current = i == msg.seq
+            self._publish()
+
+    def _on_reached(self, msg):
+        out = WaypointReached()
+        out.header.stamp, out.wp_seq = rospy.Time.now(), msg.seq
+        rospy.loginfo('WP: reached #%d', msg.seq)
+        self.reached_pub.publish(out)
+
+    def _on_connection(self, connected):
+        if connected:
+            timer = threading.Timer(PULL_AFTER_CONNECT_S, self._auto_pull)
+            timer.daemon = True
+            timer.start()
+
+    def _auto_pull(self):
+        if self.bridge.connected and not rospy.is_shutdown():
+            try:
+                count = self._transfer(self._do_pull)
+                rospy.loginfo('WP: mission received: %d items', count)
+            except TransferError as err:
+                rospy.logwarn('WP: mission pull after connection failed: %s', err)
+
+    def _publish(self):
+        msg = WaypointList()
+        msg.current_seq, msg.waypoints = self.current_seq, list(self.waypoints)
+        self.waypoints_pub.publish(msg)
+
+    # -- transfers (service threads) -------------------------------------------------------
+
+    def _transfer(self, work, *args):
+        if not self.transfer_lock.acquire(blocking=False):
+            raise TransferError('another mission transfer is in progress')
+        self.inbox = queue.Queue()
+        try:
+            return work(*args)
+        finally:
+            self.inbox = None
+            self.transfer_lock.release()
+
+    def _wait(self, accept, resend, what):
+        """Wait for a message that accept() returns a value for, resending on timeout.
+
+        accept() returns None to ignore a message, PROGRESS when the peer moves on (the
+        tries start again), or the result."""
+        tries = 0
+        while tries <= STEP_RETRIES:
+            resend()
+            tries += 1
+            deadline = time.monotonic() + STEP_TIMEOUT_S
+            while time.monotonic() < deadline:
+                try:
+                    msg = self.inbox.get(timeout=max(0.0, deadline - time.monotonic()))
+                except queue.Empty:
+                    break
+                value = accept(msg)
+                if value is PROGRESS:
+                    tries, deadline = 0, time.monotonic() + STEP_TIMEOUT_S
+                elif value is not None:
+                    return value
+        raise TransferError('no answer to %s after %d tries' % (what, STEP_RETRIES + 1))
+
+    def _do_pull(self):
+        b = self.bridge
+        target = (b.target_system, b.target_component)
+        count = self._wait(lambda m: m.count if m.get_type() == 'MISSION_COUNT' else None,
+                           lambda: b.send(b.mav.mission_request_list_encode(*target, 0)), 'MISSION_REQUEST_LIST')
+        items = []
+        for seq in range(count):
+            items.append(self._wait(
+                lambda m, seq=seq: m if m.get_type() in ('MISSION_ITEM_INT', 'MISSION_ITEM') and m.seq == seq
+                else None,
+                lambda seq=seq: b.send(b.mav.mission_request_int_encode(*target, seq, 0)),
+                'MISSION_REQUEST_INT %d' % seq))
+        b.send(b.mav.mission_ack_encode(*target, MISSION_ACCEPTED, 0))
+        self.waypoints = [waypoint_from_item(item) for item in items]
+        self.current_seq = next((i for i, item in enumerate(items) if item.current), self.current_seq)
+        self._publish()
+        return count
+
+    def _item(self, seq, wp, as_int):
+        b = self.bridge
+        target = (b.target_system, b.target_component)
+        if as_int:
+            scale = 1e7 if wp.frame in GLOBAL_FRAMES else FRAME_LOCAL_SCALE
+            return b.mav.mission_item_int_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
+                                                 int(wp.autocontinue), wp.param1, wp.param2, wp.param3, wp.param4,
+                                                 int(round(wp.x_lat * scale)), int(round(wp.y_long * scale)),
+                                                 wp.z_alt, 0)
+        return b.mav.mission_item_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
+                                         int(wp.autocontinue), wp.param1, wp.param2, wp.param3, wp.param4,
+                                         wp.x_lat, wp.y_long, wp.z_alt, 0)
+
+    def _do_push(self, waypoints):
+        b = self.bridge
+        target = (b.target_system, b.target_component)
+        sent = set()
+
+        def accept(msg):
+            kind = msg.get_type()
+            if kind in ('MISSION_REQUEST_INT', 'MISSION_REQUEST') and 0 <= msg.seq < len(waypoints):
+                b.send(self._item(msg.seq, waypoints[msg.seq], kind == 'MISSION_REQUEST_INT'))
+                sent.add(msg.seq)
+                return PROGRESS
+            if kind == 'MISSION_ACK':
+                return msg.type
+            return None
+        # MISSION_COUNT is repeated only until the FCU asks for an item; then it drives the transfer
+        result = self._wait(accept, lambda: None if sent else b.send(b.mav.mission_count_encode(
+            *target, len(waypoints), 0)), 'MISSION_COUNT / items')
+        if result != MISSION_ACCEPTED:
+            raise TransferError('FCU refused the mission: MAV_MISSION_RESULT %d' % result)
+        self.waypoints = list(waypoints)
+        self.current_seq = 0
+        self._publish()
+        return len(sent)
+
+    def _do_clear(self):
+        b = self.bridge
+        target = (b.target_system, b.target_component)
+        result = self._wait(lambda m: m.type if m.get_type() == 'MISSION_ACK' else None,
+                            lambda: b.send(b.mav.mission_clear_all_encode(*target, 0)), 'MISSION_CLEAR_ALL')
+        if result != MISSION_ACCEPTED:
+            raise TransferError('FCU refused to clear: MAV_MISSION_RESULT %d' % result)
+        self.waypoints, self.current_seq = [], 0
+        self._publish()
+
+    def _push(self, req):
+        if req.start_index != 0:
+            rospy.logerr('WP: partial push (start_index %d) is not supported by PX4', req.start_index)
+            return WaypointPushResponse(success=False, wp_transfered=0)
+        try:
+            if not req.waypoints:
+                self._transfer(self._do_clear)
+                return WaypointPushResponse(success=True, wp_transfered=0)
+            count = self._transfer(self._do_push, list(req.waypoints))
+            return WaypointPushResponse(success=True, wp_transfered=count)
+        except TransferError as err:
+            rospy.logerr('WP: push failed: %s', err)
+            return WaypointPushResponse(success=False, wp_transfered=0)
+
+    def _pull(self, _req):
+        try:
+            return WaypointPullResponse(success=True, wp_received=self._transfer(self._do_pull))
+        except TransferError as err:
+            rospy.logerr('WP: pull failed: %s', err)
+            return WaypointPullResponse(success=False, wp_received=0)
+
+    def _clear(self, _req):
+        try:
+            self._transfer(self._do_clear)
+            return WaypointClearResponse(success=True)
+        except TransferError as err:
+            rospy.logerr('WP: clear failed: %s', err)
+            return WaypointClearResponse(success=False)

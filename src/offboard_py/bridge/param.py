@@ -1,0 +1,152 @@
+"""mavros param: ~param/pull, ~param/get, ~param/set.
+
+The list is pulled from the FCU (PARAM_REQUEST_LIST; missing indices re-read one by
+one) shortly after the connection, as mavros does, and on ~param/pull. ~param/get answers
+from that list (unknown id: success=false). ~param/set sends PARAM_SET, with PX4's
+bytewise INT32 encoding, and waits for the PARAM_VALUE echo: success when the FCU
+echoes the value asked for. Integer parameters travel in value.integer, floats in value.real.
+"""
+
+import collections
+import math
+import struct
+import threading
+import time
+
+import rospy
+from mavros_msgs.msg import ParamValue
+from mavros_msgs.srv import ParamGet, ParamGetResponse, ParamPull, ParamPullResponse, ParamSet, ParamSetResponse
+
+INT_TYPES = {1, 2, 3, 4, 5, 6}   # MAV_PARAM_TYPE UINT8 .. INT32 (PX4 uses INT32)
+PULL_AFTER_CONNECT_S = 10.0       # mavros waits for the FCU to boot before pulling
+LIST_TIMEOUT_S = 30.0
+SET_TIMEOUT_S, SET_RETRIES = 1.0, 3
+QUIET_S = 1.0                     # no PARAM_VALUE for this long: re-read what is missing
+
+
+def decode(param_type, wire):
+    """PX4 bytewise encoding: an integer's bytes travel in the float field."""
+    if param_type in INT_TYPES:
+        return struct.unpack('<i', struct.pack('<f', wire))[0]
+    return wire
+
+
+def encode(param_type, value):
+    if param_type in INT_TYPES:
+        return struct.unpack('<f', struct.pack('<i', int(value)))[0]
+    return float(value)
+
+
+class Param:
+    def __init__(self, bridge):
+        self.bridge = bridge
+        self.lock = threading.Condition()
+        self.values = {}        # id -> (value, type)
+        self.arrivals = collections.Counter()  # id -> PARAM_VALUEs seen, to spot an echo
+        self.count = None
+        self.indices = set()
+        self.last_value_s = 0.0
+        self.pull_lock = threading.Lock()
+        self.services = [rospy.Service('~param/pull', ParamPull, self._pull),
+                         rospy.Service('~param/get', ParamGet, self._get),
+                         rospy.Service('~param/set', ParamSet, self._set)]
+        bridge.on('PARAM_VALUE', self._on_value)
+        bridge.on_connection(self._on_connection)
+
+    def _on_connection(self, connected):
+        if connected:
+            timer = threading.Timer(PULL_AFTER_CONNECT_S, self._auto_pull)
+            timer.daemon = True
+            timer.start()
+
+    def _auto_pull(self):
+        if self.bridge.connected and not rospy.is_shutdown() and not self.complete():
+            count = self.pull(force=False)
+            rospy.loginfo('PR: parameters received: %d', count)
+
+    def _on_value(self, msg):
+        with self.lock:
+            self.values[msg.param_id] = (decode(msg.param_type, msg.param_value), msg.param_type)
+            self.arrivals[msg.param_id] += 1
+            self.count = msg.param_count
+            if msg.param_index != 0xFFFF:
+                self.indices.add(msg.param_index)
+            self.last_value_s = time.monotonic()
+            self.lock.notify_all()
+
+    def complete(self):
+        return self.count is not None and len(self.indices) >= self.count
+
+    def pull(self, force):
+        """Pull the list; return the number of parameters received."""
+        b = self.bridge
+        with self.pull_lock:
+            if self.complete() and not force:
+                return len(self.values)
+            with self.lock:
+                self.indices.clear()
+                self.count = None
+                self.last_value_s = time.monotonic()
+            b.send(b.mav.param_request_list_encode(b.target_system, b.target_component))
+            deadline = time.monotonic() + LIST_TIMEOUT_S
+            with self.lock:
+                while not self.complete() and time.monotonic() < deadline and not rospy.is_shutdown():
+                    self.lock.wait(0.2)
+                    if self.count is not None and time.monotonic() - self.last_value_s > QUIET_S:
+                        missing = sorted(set(range(self.count)) - self.indices)[:50]
+                        for index in missing:
+                            b.send(b.mav.param_request_read_encode(b.target_system, b.target_component, b'', index))
+                        self.last_value_s = time.monotonic()
+                return len(self.indices)
+
+    def _pull(self, req):
+        received = self.pull(req.force_pull)
+        return ParamPullResponse(success=self.complete(), param_received=received)
+
+    @staticmethod
+    def _value_msg(value, param_type):
+        msg = ParamValue()
+        if param_type in INT_TYPES:
+            msg.integer = int(value)
+        else:
+            msg.real = float(value)
+        return msg
+
+    def _get(self, req):
+        with self.lock:
+            entry = self.values.get(req.param_id)
+        if entry is None:
+            rospy.logwarn('PR: unknown parameter %s (pulled %d)', req.param_id, len(self.values))
+            return ParamGetResponse(success=False)
+        return ParamGetResponse(success=True, value=self._value_msg(*entry))
+
+    def _set(self, req):
+        b = self.bridge
+        with self.lock:
+            entry = self.values.get(req.param_id)
+        if entry is None:
+            rospy.logerr('PR: Unknown parameter to set: %s', req.param_id)
+            return ParamSetResponse(success=False)
+        param_type = entry[1]
+        wanted = req.value.integer if req.value.integer != 0 else req.value.real
+        if not math.isfinite(wanted):
+            rospy.logerr('PR: %s: value %r is not a finite number', req.param_id, wanted)
+            return ParamSetResponse(success=False, value=self._value_msg(*entry))
+        wanted = int(wanted) if param_type in INT_TYPES else float(wanted)
+        wire = encode(param_type, wanted)
+        for _ in range(SET_RETRIES):
+            with self.lock:
+                before = self.arrivals[req.param_id]
+            b.send(b.mav.param_set_encode(b.target_system, b.target_component, req.param_id.encode(), wire,
+                                          param_type))
+            deadline = time.monotonic() + SET_TIMEOUT_S
+            with self.lock:
+                while time.monotonic() < deadline:
+                    if self.arrivals[req.param_id] != before:
+                        value, vtype = self.values[req.param_id]
+                        same = value == wanted or (vtype not in INT_TYPES and abs(value - wanted) < 1e-6 *
+                                                   max(1.0, abs(wanted)))
+                        return ParamSetResponse(success=same, value=self._value_msg(value, vtype))
+                    self.lock.wait(0.05)
+        rospy.logerr('PR: %s: no PARAM_VALUE echo after %d tries', req.param_id, SET_RETRIES)
+        return ParamSetResponse(success=False, value=self._value_msg(*entry))

@@ -1,0 +1,71 @@
+"""mavros setpoint_position and setpoint_raw: ROS setpoints out as SET_POSITION_TARGET_LOCAL_NED.
+
+- ~setpoint_position/local (PoseStamped, ENU): frame LOCAL_NED, type_mask 0x9F8 (position
+  and yaw), position ENU->NED, yaw from the orientation converted to NED/FRD. frame_id is
+  ignored, as in mavros.
+- ~setpoint_raw/local (PositionTarget): LOCAL_NED (and LOCAL_OFFSET_NED) vectors ENU->NED,
+  BODY_NED (and BODY_OFFSET_NED) vectors FLU->FRD; yaw_ned = pi/2 - yaw, yaw_rate negated;
+  type_mask passed through.
+A setpoint with a NaN or infinite number is not sent, and is logged (throttled).
+"""
+
+import math
+
+import rospy
+from geometry_msgs.msg import PoseStamped
+from mavros_msgs.msg import PositionTarget
+
+from offboard_py import frames
+
+TYPE_MASK_POSITION_YAW = 0x9F8
+FRAME_LOCAL_NED = 1
+BODY_FRAMES = (PositionTarget.FRAME_BODY_NED, PositionTarget.FRAME_BODY_OFFSET_NED)
+
+
+def _time_boot_ms(stamp):
+    return (stamp.to_nsec() // 1000000) & 0xFFFFFFFF
+
+
+def _finite(*values):
+    return all(math.isfinite(v) for v in values)
+
+
+class Setpoint:
+    def __init__(self, bridge):
+        self.bridge = bridge
+        self.rejected = 0
+        self.subs = [
+            rospy.Subscriber('~setpoint_position/local', PoseStamped, self._on_pose, queue_size=10,
+                             tcp_nodelay=True),
+            rospy.Subscriber('~setpoint_raw/local', PositionTarget, self._on_raw, queue_size=10, tcp_nodelay=True),
+        ]
+
+    def _reject(self, topic, what):
+        self.rejected += 1
+        rospy.logwarn_throttle(5.0, 'SP: %s: setpoint with %s not sent (%d rejected so far)'
+                               % (topic, what, self.rejected))
+
+    def _on_pose(self, msg):
+        p, q = msg.pose.position, msg.pose.orientation
+        if not _finite(p.x, p.y, p.z, q.x, q.y, q.z, q.w):
+            self._reject('setpoint_position/local', 'a NaN or infinite value')
+            return
+        north, east, down = frames.enu_to_ned(p.x, p.y, p.z)
+        yaw = frames.quaternion_yaw(frames.orientation_enu_to_ned((q.x, q.y, q.z, q.w)))
+        b = self.bridge
+        b.send(b.mav.set_position_target_local_ned_encode(
+            _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, FRAME_LOCAL_NED,
+            TYPE_MASK_POSITION_YAW, north, east, down, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, yaw, 0.0))
+
+    def _on_raw(self, msg):
+        p, v, a = msg.position, msg.velocity, msg.acceleration_or_force
+        if not _finite(p.x, p.y, p.z, v.x, v.y, v.z, a.x, a.y, a.z, msg.yaw, msg.yaw_rate):
+            self._reject('setpoint_raw/local', 'a NaN or infinite value')
+            return
+        convert = frames.flu_to_frd if msg.coordinate_frame in BODY_FRAMES else frames.enu_to_ned
+        position, velocity, accel = (convert(c.x, c.y, c.z) for c in (p, v, a))
+        yaw = frames.yaw_enu_to_ned(msg.yaw)
+        b = self.bridge
+        b.send(b.mav.set_position_target_local_ned_encode(
+            _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, msg.coordinate_frame,
+            msg.type_mask, *position, *velocity, *accel, yaw, -msg.yaw_rate))

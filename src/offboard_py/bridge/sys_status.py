@@ -1,0 +1,110 @@
+"""mavros sys_status: ~state (latched), ~extended_state, ~set_mode, our HEARTBEAT, the connection.
+
+- Every HEARTBEAT from the target system and component restarts the `conn/timeout` timer
+  and publishes State (connected, armed/guided/manual_input from base_mode, the PX4 mode
+  string, system_status). On expiry, one "disconnected" State. One at start too.
+- ~set_mode upper-cases custom_mode and looks it up (a number is taken as is); unknown:
+  mode_sent=false. Known: one SET_MODE is sent, no acknowledgement is awaited.
+- Our own HEARTBEAT (ONBOARD_CONTROLLER, autopilot INVALID) at conn/heartbeat_rate.
+- On connection, AUTOPILOT_VERSION is asked for (as mavros does).
+"""
+
+import rospy
+from mavros_msgs.msg import ExtendedState, State
+from mavros_msgs.srv import SetMode, SetModeResponse
+
+from offboard_py import px4_modes
+
+MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, MAV_STATE_ACTIVE = 18, 8, 4
+CMD_REQUEST_AUTOPILOT_CAPABILITIES = 520
+
+
+def custom_mode_from_string(text):
+    """The custom_mode value for a SetMode request string, or None when unknown."""
+    name = text.strip().upper()
+    if name in px4_modes.MODES:
+        return px4_modes.encode(name)
+    try:
+        value = int(name, 0)
+    except ValueError:
+        return None
+    return value if 0 <= value <= 0xFFFFFFFF else None
+
+
+class SysStatus:
+    def __init__(self, bridge):
+        self.bridge = bridge
+        self.timeout_s = bridge.cfg['conn/timeout']
+        self.last_heartbeat_s = None
+        self.base_mode = 0
+        self.state_pub = rospy.Publisher('~state', State, queue_size=10, latch=True)
+        self.extended_pub = rospy.Publisher('~extended_state', ExtendedState, queue_size=10)
+        self.set_mode_srv = rospy.Service('~set_mode', SetMode, self._set_mode)
+        bridge.link.on('HEARTBEAT', self._on_heartbeat)
+        bridge.on('EXTENDED_SYS_STATE', self._on_extended_state)
+        rate = bridge.cfg['conn/heartbeat_rate']
+        if rate > 0:
+            bridge.every(1.0 / rate, self._send_heartbeat)
+        bridge.every(0.1, self._check_timeout)
+        self._publish_disconnected()
+
+    def armed(self):
+        return bool(self.base_mode & px4_modes.SAFETY_ARMED)
+
+    def _publish_disconnected(self):
+        msg = State()
+        msg.header.stamp = rospy.Time.now()
+        self.state_pub.publish(msg)
+
+    def _on_heartbeat(self, hb):
+        b = self.bridge
+        if hb.get_srcSystem() != b.target_system or hb.get_srcComponent() != b.target_component:
+            return
+        self.last_heartbeat_s = b.link.last_receive_s
+        self.base_mode = hb.base_mode
+        msg = State()
+        msg.header.stamp = rospy.Time.now()
+        msg.connected = True
+        msg.armed = bool(hb.base_mode & px4_modes.SAFETY_ARMED)
+        msg.guided = bool(hb.base_mode & px4_modes.GUIDED_ENABLED)
+        msg.manual_input = bool(hb.base_mode & px4_modes.MANUAL_INPUT_ENABLED)
+        msg.mode = px4_modes.mode_string(hb.base_mode, hb.custom_mode)
+        msg.system_status = hb.system_status
+        if not b.connected:
+            rospy.loginfo('CON: Got HEARTBEAT, connected. FCU: PX4 Autopilot')
+            b.send(b.mav.command_long_encode(b.target_system, b.target_component,
+                                             CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0, 1, 0, 0, 0, 0, 0, 0))
+        b.set_connected(True)
+        self.state_pub.publish(msg)
+
+    def _check_timeout(self, now_s):
+        if self.bridge.connected and now_s - self.last_heartbeat_s > self.timeout_s:
+            rospy.logwarn('CON: Lost connection, HEARTBEAT timed out.')
+            self.base_mode = 0
+            self.bridge.set_connected(False)
+            self._publish_disconnected()
+
+    def _on_extended_state(self, ext):
+        msg = ExtendedState()
+        msg.header.stamp = rospy.Time.now()
+        msg.vtol_state, msg.landed_state = ext.vtol_state, ext.landed_state
+        self.extended_pub.publish(msg)
+
+    def _send_heartbeat(self, _now_s):
+        b = self.bridge
+        b.send(b.mav.heartbeat_encode(MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0, MAV_STATE_ACTIVE))
+
+    def _set_mode(self, req):
+        b = self.bridge
+        base_mode = req.base_mode
+        custom_mode = 0
+        if req.custom_mode:
+            custom_mode = custom_mode_from_string(req.custom_mode)
+            if custom_mode is None:
+                rospy.logerr('MODE: Unknown mode: %s', req.custom_mode)
+                return SetModeResponse(mode_sent=False)
+            base_mode |= px4_modes.CUSTOM_MODE_ENABLED
+            if self.armed():
+                base_mode |= px4_modes.SAFETY_ARMED
+        b.send(b.mav.set_mode_encode(b.target_system, base_mode & 0xFF, custom_mode))
+        return SetModeResponse(mode_sent=True)
