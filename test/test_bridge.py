@@ -1,0 +1,237 @@
+#!/usr/bin/env python3
+"""The bridge's mavros API: names, types and semantics, against the simulated PX4 and a silent FCU."""
+
+import math
+import socket
+import threading
+import time
+
+import rospy
+import rostest
+from geometry_msgs.msg import PoseStamped, Quaternion
+from mavros_msgs.msg import HomePosition, Waypoint, WaypointList
+from mavros_msgs.srv import ParamGet, ParamPull, ParamSet, ParamSetRequest, WaypointClear, WaypointPush
+from pymavlink.dialects.v20 import development as mavlink
+from sensor_msgs.msg import Imu, NavSatFix
+
+from offboard_test_common import OffboardTestCase, Vehicle, yaw_of
+
+PKG = 'offboard_py'
+START = time.monotonic()
+PX4_MODES = ('MANUAL', 'ALTCTL', 'POSCTL', 'ACRO', 'STABILIZED', 'RATTITUDE', 'OFFBOARD', 'AUTO.TAKEOFF',
+             'AUTO.LOITER', 'AUTO.MISSION', 'AUTO.RTL', 'AUTO.LAND')
+
+
+class SilentFcu:
+    """A fake PX4 on UDP 14691: HEARTBEATs and what the test asks, never a COMMAND_ACK."""
+
+    def __init__(self):
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(('127.0.0.1', 14691))
+        self.sock.settimeout(0.1)
+        self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.received = []
+        self.beating = True
+        self.running = True
+        threading.Thread(target=self._rx, daemon=True).start()
+        threading.Thread(target=self._beat, daemon=True).start()
+
+    def send(self, msg):
+        self.sock.sendto(msg.pack(self.mav), ('127.0.0.1', 14690))
+
+    def _beat(self):
+        while self.running:
+            if self.beating:
+                self.send(self.mav.heartbeat_encode(2, 12, 1 | 4 | 8 | 16, 50593792, 3, 3))
+            time.sleep(0.5)
+
+    def _rx(self):
+        parser = mavlink.MAVLink(None)
+        parser.robust_parsing = True
+        while self.running:
+            try:
+                data, _ = self.sock.recvfrom(4096)
+            except socket.timeout:
+                continue
+            for msg in parser.parse_buffer(data) or []:
+                self.received.append(msg)
+
+    def of_type(self, name):
+        return [m for m in self.received if m.get_type() == name]
+
+
+class BridgeTest(OffboardTestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        cls.fcu = SilentFcu()
+        cls.sim = Vehicle('mavros')
+        cls.silent = Vehicle('silent/mavros')
+
+    def test_01_connects_fast_and_state_fields(self):
+        self.wait_for_connected(self.sim, 15.0)
+        first = next(t for t, s in self.sim.states if s.connected)
+        self.assertLessEqual(first - START, 3.0, 'connected %.1f s after the nodes started' % (first - START))
+        state = self.sim.state
+        self.assertEqual(state.mode, 'AUTO.LOITER')
+        self.assertTrue(state.guided, 'AUTO modes set GUIDED')
+        self.assertFalse(state.armed)
+        self.assertEqual(state.system_status, 3)
+
+    def test_02_mode_strings_for_px4_modes(self):
+        self.wait_for_connected(self.sim, 15.0)
+        for mode in PX4_MODES:
+            self.assertTrue(self.set_mode(self.sim, mode))
+            self.wait_for_mode(self.sim, mode, 4.0)
+        self.assertTrue(self.set_mode(self.sim, 'auto.loiter'), 'mode strings are upper-cased')
+        self.wait_for_mode(self.sim, 'AUTO.LOITER', 4.0)
+        self.assertTrue(self.set_mode(self.sim, str((4 << 16) | (4 << 24))), 'a number is taken as custom_mode')
+        self.wait_for_mode(self.sim, 'AUTO.MISSION', 4.0)
+        self.assertFalse(self.set_mode(self.sim, 'NOT_A_MODE'), 'unknown mode: mode_sent=false')
+        self.set_mode(self.sim, 'AUTO.LOITER')
+
+    def test_03_arming_ack_semantics(self):
+        self.wait_for_connected(self.sim, 15.0)
+        self.wait_until(lambda: time.monotonic() - START > 6.0, 10.0, 'the FCU to be ready')
+        self.set_mode(self.sim, 'OFFBOARD')
+        self.wait_for_mode(self.sim, 'OFFBOARD', 4.0)
+        refused = self.set_arm(self.sim, True)
+        self.assertEqual((refused.success, refused.result), (False, 1), 'no offboard signal: TEMPORARILY_REJECTED')
+        self.set_mode(self.sim, 'AUTO.LOITER')
+        self.wait_for_mode(self.sim, 'AUTO.LOITER', 4.0)
+        armed = self.set_arm(self.sim, True)
+        self.assertEqual((armed.success, armed.result), (True, 0))
+        self.wait_for_armed(self.sim, True, 3.0)
+        disarmed = self.set_arm(self.sim, False)
+        self.assertEqual((disarmed.success, disarmed.result), (True, 0))
+
+    def test_04_arming_timeout_and_busy_against_silent_fcu(self):
+        self.wait_for_connected(self.silent, 10.0)
+        results = []
+
+        def call():
+            try:
+                results.append(self.silent.arming_srv(value=True))
+            except rospy.ServiceException as err:
+                results.append(err)
+        self.silent.arming_srv.wait_for_service(5.0)
+        first = threading.Thread(target=call)
+        first.start()
+        time.sleep(0.3)
+        call()  # the same command while the first waits: the service call fails
+        first.join(10.0)
+        errors = [r for r in results if isinstance(r, Exception)]
+        answers = [r for r in results if not isinstance(r, Exception)]
+        self.assertEqual(len(errors), 1, 'the second arming call must fail: %s' % results)
+        self.assertEqual(len(answers), 1)
+        self.assertEqual((answers[0].success, answers[0].result), (False, 4), 'no ACK: success=false, result=4')
+        cmds = [m for m in self.fcu.of_type('COMMAND_LONG') if m.command == 400]
+        self.assertTrue(cmds and cmds[0].param1 == 1.0 and cmds[0].confirmation == 1)
+
+    def test_05_setpoint_enu_arrives_as_ned(self):
+        self.wait_for_connected(self.silent, 10.0)
+        pub = rospy.Publisher('silent/mavros/setpoint_position/local', PoseStamped, queue_size=10)
+        self.wait_until(lambda: pub.get_num_connections() > 0, 5.0, 'the bridge subscribing')
+        before = len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED'))
+        bad = PoseStamped()
+        bad.pose.position.x = float('nan')
+        bad.pose.orientation.w = 1.0
+        pub.publish(bad)
+        sp = PoseStamped()
+        sp.pose.position.x, sp.pose.position.y, sp.pose.position.z = 1.0, 2.0, 3.0
+        sp.pose.orientation = Quaternion(0.0, 0.0, 0.0, 1.0)  # yaw 0 ENU: facing east
+        pub.publish(sp)
+        self.wait_until(lambda: len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')) > before, 5.0,
+                        'a SET_POSITION_TARGET_LOCAL_NED at the FCU')
+        time.sleep(0.3)
+        got = self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')[before:]
+        self.assertEqual(len(got), 1, 'the NaN setpoint must not be sent')
+        m = got[0]
+        self.assertEqual((m.coordinate_frame, m.type_mask), (1, 2552))
+        self.assertEqual((round(m.x, 6), round(m.y, 6), round(m.z, 6)), (2.0, 1.0, -3.0))
+        self.assertAlmostEqual(m.yaw, math.pi / 2, places=5)
+
+    def test_06_local_pose_is_enu(self):
+        self.wait_for_connected(self.silent, 10.0)
+        q_ned = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # w, x, y, z: yaw 90 deg NED (east)
+        for _ in range(5):
+            self.fcu.send(self.fcu.mav.attitude_quaternion_encode(0, *q_ned, 0.0, 0.0, 0.0, [0.0] * 4))
+            self.fcu.send(self.fcu.mav.local_position_ned_encode(0, 1.0, 2.0, -3.0, 0.5, 0.0, -1.0))
+            time.sleep(0.05)
+        self.wait_until(lambda: self.silent.pose is not None, 5.0, 'local_position/pose')
+        p, q = self.silent.pose.pose.position, self.silent.pose.pose.orientation
+        self.assertEqual((round(p.x, 6), round(p.y, 6), round(p.z, 6)), (2.0, 1.0, 3.0))
+        self.assertAlmostEqual(yaw_of(q), 0.0, places=5)
+        self.assertEqual(self.silent.pose.header.frame_id, 'map')
+        v = self.silent.velocity.twist.linear
+        self.assertEqual((round(v.x, 6), round(v.y, 6), round(v.z, 6)), (0.0, 0.5, 1.0))
+
+    def test_07_params_float_and_int(self):
+        self.wait_for_connected(self.sim, 15.0)
+        rospy.wait_for_service('mavros/param/pull', 5.0)
+        pull = rospy.ServiceProxy('mavros/param/pull', ParamPull)(force_pull=True)
+        self.assertTrue(pull.success)
+        self.assertGreaterEqual(pull.param_received, 20)
+        get = rospy.ServiceProxy('mavros/param/get', ParamGet)
+        put = rospy.ServiceProxy('mavros/param/set', ParamSet)
+        self.assertEqual(get(param_id='MIS_TAKEOFF_ALT').value.real, 2.5)
+        req = ParamSetRequest(param_id='MIS_TAKEOFF_ALT')
+        req.value.real = 3.0
+        res = put(req)
+        self.assertTrue(res.success)
+        self.assertEqual(res.value.real, 3.0)
+        self.assertEqual(get(param_id='MIS_TAKEOFF_ALT').value.real, 3.0)
+        self.assertEqual(get(param_id='COM_OBL_RC_ACT').value.integer, 0)
+        req = ParamSetRequest(param_id='COM_OBL_RC_ACT')
+        req.value.integer = 4
+        res = put(req)
+        self.assertTrue(res.success)
+        self.assertEqual(res.value.integer, 4)
+        self.assertFalse(get(param_id='NO_SUCH_PARAM').success)
+
+    def test_08_mission_push_waypoints_clear(self):
+        self.wait_for_connected(self.sim, 15.0)
+        lists = []
+        rospy.Subscriber('mavros/mission/waypoints', WaypointList, lists.append)
+        self.wait_until(lambda: lists, 10.0, 'a latched mission/waypoints (also when empty)')
+        wps = []
+        for i, (lat, lon) in enumerate(((47.3978, 8.5456), (47.3979, 8.5457), (47.3980, 8.5456))):
+            wp = Waypoint(frame=3, command=16 if i else 22, is_current=i == 0, autocontinue=True,
+                          x_lat=lat, y_long=lon, z_alt=5.0)
+            wps.append(wp)
+        rospy.wait_for_service('mavros/mission/push', 5.0)
+        res = rospy.ServiceProxy('mavros/mission/push', WaypointPush)(start_index=0, waypoints=wps)
+        self.assertTrue(res.success)
+        self.assertEqual(res.wp_transfered, 3)
+        self.wait_until(lambda: len(lists[-1].waypoints) == 3, 5.0, 'mission/waypoints with 3 items')
+        self.assertAlmostEqual(lists[-1].waypoints[1].x_lat, 47.3979, places=6)
+        self.assertTrue(rospy.ServiceProxy('mavros/mission/clear', WaypointClear)().success)
+        self.wait_until(lambda: len(lists[-1].waypoints) == 0, 5.0, 'an empty mission/waypoints after clear')
+
+    def test_09_home_global_imu_populated(self):
+        self.wait_for_connected(self.sim, 15.0)
+        home = rospy.wait_for_message('mavros/home_position/home', HomePosition, 20.0)
+        self.assertAlmostEqual(home.geo.latitude, 47.397742, places=5)
+        self.assertAlmostEqual(home.geo.altitude, 488.0, places=2)
+        fix = rospy.wait_for_message('mavros/global_position/global', NavSatFix, 5.0)
+        self.assertAlmostEqual(fix.longitude, 8.545594, places=4)
+        imu = rospy.wait_for_message('mavros/imu/data', Imu, 5.0)
+        self.assertAlmostEqual(imu.linear_acceleration.z, 9.80665, places=1, msg='FLU: gravity reads +z at rest')
+
+    def test_10_disconnected_after_timeout(self):
+        self.wait_for_connected(self.silent, 10.0)
+        self.fcu.beating = False
+        stopped = time.monotonic()
+        self.wait_until(lambda: not self.silent.state.connected, 3.0 + 1.0 + 0.5, 'disconnected State',
+                        [self.silent])
+        self.assertLessEqual(time.monotonic() - stopped, 3.0 + 1.0 + 0.5)
+        self.assertGreaterEqual(time.monotonic() - stopped, 2.4, 'not before conn/timeout')
+        s = self.silent.state
+        self.assertEqual((s.armed, s.guided, s.mode, s.system_status), (False, False, '', 0))
+        self.fcu.beating = True
+        self.wait_for_connected(self.silent, 3.0)
+
+
+if __name__ == '__main__':
+    rospy.init_node('test_bridge')
+    rostest.rosrun(PKG, 'bridge', BridgeTest)

@@ -1,0 +1,37 @@
+#!/usr/bin/env python3
+"""The tutorial's flight, end to end: OFFBOARD, armed, 2 m held, and the node said so once each."""
+
+import time
+
+import rospy
+import rostest
+from geometry_msgs.msg import PoseStamped
+
+from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+
+PKG = 'offboard_py'
+
+
+class TakeoffTest(OffboardTestCase):
+
+    def test_takeoff_and_hold_2m(self):
+        vehicle = Vehicle('mavros')
+        log = RosoutRecorder('/offb_node_py')
+        setpoints = []
+        rospy.Subscriber('mavros/setpoint_position/local', PoseStamped, lambda m: setpoints.append(time.monotonic()))
+        self.wait_for_connected(vehicle, 30.0)
+        try:
+            self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed, 60.0,
+                            'OFFBOARD and armed', [vehicle])
+        except AssertionError as err:
+            raise AssertionError('%s; setpoints streamed by the node: %d; node said: %s'
+                                 % (err, len(setpoints), log.lines[-5:]))
+        self.wait_for_altitude(vehicle, 2.0, 0.15, 30.0)
+        self.assert_holds(vehicle, 2.0, 0.15, 3.0)
+        self.assertEqual(log.count('OFFBOARD enabled'), 1, 'node log: %s' % log.lines)
+        self.assertEqual(log.count('Vehicle armed'), 1, 'node log: %s' % log.lines)
+
+
+if __name__ == '__main__':
+    rospy.init_node('test_takeoff')
+    rostest.rosrun(PKG, 'takeoff', TakeoffTest)
