@@ -37,6 +37,7 @@ DEFINITIONS = (
     Param('MPC_XY_VEL_MAX', _FLOAT, 12.0, 0.0, 20.0),
     Param('MPC_XY_CRUISE', _FLOAT, 5.0, 3.0, 20.0),
     Param('MPC_TKO_SPEED', _FLOAT, 1.5, 1.0, 5.0),
+    Param('MPC_TKO_RAMP_T', _FLOAT, 3.0, 0.0, 5.0),
     Param('MPC_LAND_SPEED', _FLOAT, 0.7, 0.6, 4.0),
     Param('MPC_LAND_ALT1', _FLOAT, 10.0, 0.0, 122.0),
     Param('MPC_LAND_ALT2', _FLOAT, 5.0, 0.0, 122.0),

@@ -6,6 +6,8 @@ velocity setpoint (MPC_XY_P, MPC_Z_P) limited by MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_
 (MPC_*_VEL_P_ACC) limited by MPC_ACC_UP_MAX / MPC_ACC_DOWN_MAX and the tilt limit. The airframe reaches the
 commanded acceleration through a first-order lag (motors and attitude loop), and its
 attitude is the one that points the thrust along that acceleration, with the yaw asked for.
+A takeoff from the ground ramps the climb-rate limit from 0 to MPC_TKO_SPEED over
+MPC_TKO_RAMP_T after the motors spool up, as PX4's takeoff handling does.
 The ground is z = 0 (NED, home altitude): the vehicle cannot go below it and rests there
 when it does not push upwards. A land detector reports ground contact and `landed` with
 PX4-like hysteresis.
@@ -95,6 +97,7 @@ class Vehicle:
         self.yaw_rate = 0.0
         self.motors_on = False
         self.motors_on_s = None
+        self.ramp_start_s = None  # takeoff ramp running since (None: not taking off)
         self.ground_contact = position[2] >= 0.0
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
@@ -103,16 +106,28 @@ class Vehicle:
 
     def start_motors(self, now_s):
         self.motors_on, self.motors_on_s = True, now_s
+        self.ramp_start_s = now_s + self.params['COM_SPOOLUP_TIME'] if self.landed else None
 
     def stop_motors(self):
-        self.motors_on, self.motors_on_s = False, None
+        self.motors_on, self.motors_on_s, self.ramp_start_s = False, None, None
+
+    def _takeoff_climb_limit(self, now_s):
+        """Climb-rate limit of the takeoff ramp, or None once the ramp is over."""
+        if self.ramp_start_s is None:
+            return None
+        ramp_s = self.params['MPC_TKO_RAMP_T']
+        elapsed = now_s - self.ramp_start_s
+        if ramp_s <= 0.0 or elapsed >= ramp_s:
+            self.ramp_start_s = None
+            return None
+        return self.params['MPC_TKO_SPEED'] * max(elapsed, 0.0) / ramp_s
 
     def spooled_up(self, now_s):
         return self.motors_on and now_s - self.motors_on_s >= self.params['COM_SPOOLUP_TIME']
 
     # -- dynamics --------------------------------------------------------------------------
 
-    def _velocity_setpoint(self, sp):
+    def _velocity_setpoint(self, sp, now_s):
         p = self.params
         vel_sp = [0.0, 0.0, 0.0]
         controlled = [False, False, False]
@@ -127,14 +142,17 @@ class Vehicle:
                 controlled[i] = True
         xy_max = p['MPC_XY_VEL_MAX'] if sp.xy_speed_max is None else min(sp.xy_speed_max, p['MPC_XY_VEL_MAX'])
         up_max = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
+        ramp = self._takeoff_climb_limit(now_s)
+        if ramp is not None:
+            up_max = min(up_max, ramp)
         dn_max = p['MPC_Z_VEL_MAX_DN'] if sp.z_down_max is None else min(sp.z_down_max, p['MPC_Z_VEL_MAX_DN'])
         vel_sp[0], vel_sp[1] = _limit_xy(vel_sp[0], vel_sp[1], xy_max)
         vel_sp[2] = _clamp(vel_sp[2], -up_max, dn_max)
         return vel_sp, controlled
 
-    def _acceleration_setpoint(self, sp):
+    def _acceleration_setpoint(self, sp, now_s):
         p = self.params
-        vel_sp, controlled = self._velocity_setpoint(sp)
+        vel_sp, controlled = self._velocity_setpoint(sp, now_s)
         gains = (p['MPC_XY_VEL_P_ACC'], p['MPC_XY_VEL_P_ACC'], p['MPC_Z_VEL_P_ACC'])
         acc = [0.0, 0.0, 0.0]
         for i in range(3):
@@ -149,7 +167,7 @@ class Vehicle:
         """Advance the model by dt seconds, flying setpoint `sp` when the motors allow."""
         flying = self.spooled_up(now_s)
         if flying:
-            acc_cmd = self._acceleration_setpoint(sp)
+            acc_cmd = self._acceleration_setpoint(sp, now_s)
             yaw_sp = sp.yaw if _is(sp.yaw) else self.yaw
             if _is(sp.yaw):
                 yaw_rate = YAW_P * math.atan2(math.sin(yaw_sp - self.yaw), math.cos(yaw_sp - self.yaw))

@@ -1,0 +1,203 @@
+"""The takeoff demo: run start_offb.launch, show a live status line, plot the climb.
+
+Starts `roslaunch offboard_py start_offb.launch` (which starts a master if none runs),
+watches /mavros/state, /mavros/local_position/pose and the node's setpoints, and prints
+one status line (time, mode, armed, altitude). Once the vehicle has held the setpoint
+altitude for `--hold` seconds it writes a PNG of altitude and setpoint over time with
+the connection, OFFBOARD and arming events marked, says where, stops the launch and
+exits 0. `--keep-flying` goes on until Ctrl-C; `--bag FILE` records the flight.
+Exits 1 (saying what it saw) when the vehicle does not get there in `--timeout` s.
+"""
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+HOLD_TOLERANCE_M = 0.1
+BAG_TOPICS = ['/mavros/state', '/mavros/extended_state', '/mavros/local_position/pose',
+              '/mavros/setpoint_position/local', '/rosout']
+
+
+class Recorder:
+    """What the demo saw, with times relative to its start."""
+
+    def __init__(self, t0):
+        self.t0 = t0
+        self.lock = threading.Lock()
+        self.altitude = []   # (t, z ENU)
+        self.setpoint = []   # (t, z ENU)
+        self.events = []     # (t, label)
+        self.mode, self.armed, self.connected = '', False, False
+
+    def now(self):
+        return time.monotonic() - self.t0
+
+    def on_state(self, msg):
+        with self.lock:
+            t = self.now()
+            if msg.connected and not self.connected:
+                self.events.append((t, 'FCU connected'))
+            if msg.mode == 'OFFBOARD' and self.mode != 'OFFBOARD':
+                self.events.append((t, 'OFFBOARD'))
+            if msg.armed and not self.armed:
+                self.events.append((t, 'armed'))
+            self.mode, self.armed, self.connected = msg.mode, msg.armed, msg.connected
+
+    def on_pose(self, msg):
+        with self.lock:
+            self.altitude.append((self.now(), msg.pose.position.z))
+
+    def on_setpoint(self, msg):
+        with self.lock:
+            self.setpoint.append((self.now(), msg.pose.position.z))
+
+    def z(self):
+        return self.altitude[-1][1] if self.altitude else float('nan')
+
+    def target(self):
+        return self.setpoint[-1][1] if self.setpoint else None
+
+    def held_for(self, tolerance_m):
+        """Seconds the altitude has stayed within tolerance of the latest setpoint (while armed OFFBOARD)."""
+        target = self.target()
+        if target is None or not (self.armed and self.mode == 'OFFBOARD'):
+            return 0.0
+        with self.lock:
+            end = self.now()
+            start = end
+            for t, z in reversed(self.altitude):
+                if abs(z - target) > tolerance_m:
+                    break
+                start = t
+        return end - start
+
+    def status(self):
+        return 't=%5.1fs  %-12s %-8s  alt %5.2f m' % (self.now(), self.mode or 'no FCU',
+                                                       'ARMED' if self.armed else 'disarmed', self.z())
+
+
+def plot(recorder, path):
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    with recorder.lock:
+        alt, sp, events = list(recorder.altitude), list(recorder.setpoint), list(recorder.events)
+    fig, ax = plt.subplots(figsize=(9, 4.5), dpi=110)
+    if sp:
+        ax.step([t for t, _ in sp], [z for _, z in sp], where='post', linestyle='--', color='tab:orange',
+                label='setpoint z (ENU)')
+    ax.plot([t for t, _ in alt], [z for _, z in alt], color='tab:blue', label='altitude z (ENU)')
+    top = max([z for _, z in alt + sp] + [1.0])
+    for t, label in events:
+        ax.axvline(t, color='grey', linestyle=':')
+        ax.text(t, top * 0.05, label + ' ', rotation=90, va='bottom', ha='right', fontsize=8)
+    ax.set_xlabel('time since start (s)')
+    ax.set_ylabel('altitude (m)')
+    ax.set_ylim(min(-0.1, min([z for _, z in alt] + [0.0])), top * 1.2)
+    ax.set_title('offboard_py takeoff demo: offb_node -> mavros bridge -> simulated PX4')
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc='lower right')
+    fig.tight_layout()
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(prog='takeoff_demo.py', description=__doc__.split('\n\n')[0])
+    p.add_argument('--plot', default=os.path.join(os.getcwd(), 'out', 'takeoff.png'), help='PNG to write')
+    p.add_argument('--hold', type=float, default=3.0, help='seconds at the setpoint before the plot (default 3)')
+    p.add_argument('--timeout', type=float, default=120.0, help='give up after this many seconds (default 120)')
+    p.add_argument('--keep-flying', action='store_true', help='keep flying after the plot, until Ctrl-C')
+    p.add_argument('--bag', metavar='FILE', help='record the flight to this rosbag')
+    p.add_argument('--log', default=os.path.join(os.getcwd(), 'out', 'demo-launch.log'),
+                   help='where the launched nodes\' output goes')
+    p.add_argument('launch_args', nargs='*', metavar='name:=value', help='passed to start_offb.launch')
+    args = p.parse_args(argv)
+    for name in ('hold', 'timeout'):
+        if not 0.0 < getattr(args, name) < 1e6:
+            p.error('--%s must be a positive number of seconds' % name)
+    bad = [a for a in args.launch_args if ':=' not in a]
+    if bad:
+        p.error('launch arguments must look like name:=value, got %s' % ' '.join(bad))
+    return args
+
+
+def _stop(proc, timeout_s=15.0):
+    if proc is None or proc.poll() is not None:
+        return
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def main(argv=None):
+    args = parse_args(sys.argv[1:] if argv is None else argv)
+    os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
+    tty = sys.stdout.isatty()
+    t0 = time.monotonic()
+    log = open(args.log, 'w')
+    launch = subprocess.Popen(['roslaunch', 'offboard_py', 'start_offb.launch'] + args.launch_args,
+                              stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    bag = None
+    interrupted = []
+    signal.signal(signal.SIGINT, lambda *_: interrupted.append(True))
+    try:
+        import rosgraph
+        import rospy
+        from geometry_msgs.msg import PoseStamped
+        from mavros_msgs.msg import State
+
+        deadline = time.monotonic() + 30.0
+        while not rosgraph.is_master_online():
+            if launch.poll() is not None or time.monotonic() > deadline or interrupted:
+                print('the ROS master did not come up within 30 s; roslaunch output: %s' % args.log)
+                return 1
+            time.sleep(0.2)
+        rospy.init_node('takeoff_demo', disable_signals=True)
+        rec = Recorder(t0)
+        rospy.Subscriber('/mavros/state', State, rec.on_state)
+        rospy.Subscriber('/mavros/local_position/pose', PoseStamped, rec.on_pose)
+        rospy.Subscriber('/mavros/setpoint_position/local', PoseStamped, rec.on_setpoint)
+        if args.bag:
+            bag = subprocess.Popen(['rosbag', 'record', '-q', '-O', args.bag] + BAG_TOPICS,
+                                   stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        print('takeoff demo: offb_node -> mavros bridge -> simulated PX4 (node output: %s)' % args.log)
+        plotted = False
+        last_line = 0.0
+        while not interrupted:
+            if launch.poll() is not None:
+                print('\nroslaunch exited (code %s); see %s' % (launch.returncode, args.log))
+                return 1
+            if tty:
+                sys.stdout.write('\r' + rec.status() + '   ')
+                sys.stdout.flush()
+            elif rec.now() - last_line >= 2.0:
+                print(rec.status(), flush=True)
+                last_line = rec.now()
+            if not plotted and rec.held_for(HOLD_TOLERANCE_M) >= args.hold:
+                plot(rec, args.plot)
+                plotted = True
+                print('\n' if tty else '', end='')
+                print('held %.1f m for %.0f s at t=%.1f s; plot: %s' % (rec.target(), args.hold, rec.now(),
+                                                                         os.path.abspath(args.plot)), flush=True)
+                if not args.keep_flying:
+                    return 0
+            if not plotted and rec.now() > args.timeout:
+                print('\nno hover within %.0f s: %s; see %s' % (args.timeout, rec.status(), args.log))
+                return 1
+            time.sleep(0.1)
+        print()
+        return 0
+    finally:
+        _stop(bag)
+        _stop(launch)
+        log.close()
