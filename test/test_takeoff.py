@@ -21,7 +21,8 @@ class TakeoffTest(OffboardTestCase):
         rospy.Subscriber('mavros/setpoint_position/local', PoseStamped, lambda m: setpoints.append(time.monotonic()))
         self.wait_for_connected(vehicle, 30.0)
         try:
-            self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed, 60.0,
+            self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed,
+                            rospy.get_param('~deadline', 60.0),
                             'OFFBOARD and armed', [vehicle])
         except AssertionError as err:
             raise AssertionError('%s; setpoints streamed by the node: %d; node said: %s'

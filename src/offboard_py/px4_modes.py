@@ -66,7 +66,7 @@ def decode(custom_mode):
 def mode_string(base_mode, custom_mode):
     """The string mavros shows in State.mode for a PX4 HEARTBEAT."""
     if not base_mode & CUSTOM_MODE_ENABLED:
-        return 'MODE(0x%02x)' % base_mode
+        return 'MODE(0x%2X)' % base_mode  # mavros's own format, padding included
     return decode(custom_mode) or 'CMODE(%d)' % custom_mode
 
 

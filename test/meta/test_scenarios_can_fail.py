@@ -1,0 +1,25 @@
+"""The takeoff scenario must fail for a node that does not stream first, and say why.
+
+Runs the real rostest (its own master) with test/tools/broken_offb_node.py as the node
+under test and reads the JUnit result it writes.
+"""
+
+import os
+import subprocess
+import tempfile
+import xml.etree.ElementTree as ET
+
+
+def test_takeoff_scenario_fails_for_a_node_without_prestream():
+    with tempfile.TemporaryDirectory() as results:
+        out = subprocess.run(['rostest', '--results-base-dir', results, 'offboard_py', 'takeoff.test',
+                              'node_type:=broken_offb_node.py', 'deadline:=25', 'ID:=9'],
+                             capture_output=True, text=True, timeout=240)
+        files = [os.path.join(d, f) for d, _, fs in os.walk(results) for f in fs if f.startswith('rosunit-')]
+        assert files, 'no result file; rostest said:\n' + out.stdout[-3000:] + out.stderr[-3000:]
+        failures = [node for f in files for node in ET.parse(f).getroot().iter('failure')]
+    assert failures, 'the takeoff scenario passed with a broken node'
+    message = ' '.join((node.get('message') or '') + (node.text or '') for node in failures)
+    assert 'OFFBOARD and armed did not happen' in message, message
+    assert 'setpoints streamed by the node: 0' in message, message
+    assert 'disarmed' in message, message
