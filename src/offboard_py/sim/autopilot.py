@@ -35,7 +35,8 @@ DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
 
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
-                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=time.monotonic):
+                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=time.monotonic,
+                 setpoint_log=None):
         self.clock = clock
         self.system_id = instance + 1
         self.rate_hz = rate_hz
@@ -56,6 +57,8 @@ class SimulatedPx4:
         self.transfer = missions.MissionTransfer(self.mav, self.link.send, self._on_mission_changed)
         self.streams = telemetry.Streams(mavlink, self.t(now))
         self.telemetry = telemetry.TelemetryBuilder(self.mav, self.commander, self.frame, self.params, 0.0)
+        self.setpoint_log = setpoint_log  # path: arrival times of accepted setpoints, written at close
+        self.setpoint_arrivals = []  # (wall ns, time_boot_ms the setpoint carried)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0}
         self._register()
         self.running = False
@@ -183,6 +186,8 @@ class SimulatedPx4:
                 log.warning('setpoint rejected (%d so far): %s', self.counters['setpoints_rejected'], err)
             return
         self.counters['setpoints_accepted'] += 1
+        if self.setpoint_log:
+            self.setpoint_arrivals.append((time.time_ns(), msg.time_boot_ms))
         self.commander.on_offboard_setpoint(sp, self.t())
 
     def _param_value(self, name):
@@ -292,3 +297,6 @@ class SimulatedPx4:
 
     def close(self):
         self.link.close()
+        if self.setpoint_log:
+            with open(self.setpoint_log, 'w') as out:
+                out.write(''.join('%d %d\n' % row for row in self.setpoint_arrivals))

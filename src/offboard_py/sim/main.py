@@ -6,6 +6,7 @@ dropped, as rospy.myargv() does, without importing rospy).
 
 import argparse
 import logging
+import os
 import signal
 import sys
 
@@ -59,6 +60,9 @@ def parser():
                    help='seconds after boot before arming is allowed (default 5, as PX4 SITL)')
     p.add_argument('--rc', action='store_true', help='simulate an RC link (sticks centred)')
     p.add_argument('--rate', type=float, default=100.0, help='model and controller rate in Hz (default 100)')
+    p.add_argument('--setpoint-log', metavar='DIR',
+                   help='at exit, write DIR/setpoints-N.txt: arrival time (ns) and time_boot_ms of each '
+                        'accepted setpoint (for the benchmark)')
     p.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     return p
 
@@ -74,7 +78,9 @@ def main(argv=None):
         home = LocalFrame(*args.home).to_global(args.spawn[1], args.spawn[0], 0.0)
         sim = SimulatedPx4(instance=args.instance, home=home, bind_host=args.bind,
                            local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
-                           ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate)
+                           ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate,
+                           setpoint_log=os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance)
+                           if args.setpoint_log else None)
     except ParamRejected as err:
         logging.error('%s', err)
         return 2

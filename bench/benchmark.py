@@ -1,0 +1,226 @@
+#!/usr/bin/env python3
+"""The benchmark: the full stack (offb_node -> bridge -> simulated PX4) in hover, measured.
+
+For one vehicle: stream quality at the FCU, latency from publication in ROS to arrival
+at the FCU, CPU and memory of each process, time to hover split by phase. Then N
+vehicles for each N in --scale until a vehicle misses the bar (p99 inter-arrival
+<= 60 ms and no gap over 200 ms). Prints a markdown table and writes JSON.
+Run it through `./run bench` (which sets up and sources the workspace).
+"""
+
+import argparse
+import json
+import os
+import platform
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+import rosgraph
+import rospy
+from geometry_msgs.msg import PoseStamped
+from mavros_msgs.msg import State
+
+from offboard_py.streamstats import latencies_ms, percentile, stream_quality
+
+BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
+CLK_TCK = os.sysconf('SC_CLK_TCK')
+
+
+class Watch:
+    """Phase times of one vehicle, seconds from the launch."""
+
+    def __init__(self, ns, t0, stamps=None):
+        self.t0, self.phases, self.z, self.stamps = t0, {}, None, stamps
+        rospy.Subscriber(ns + '/mavros/state', State, self._state)
+        rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self._pose)
+        if stamps is not None:
+            rospy.Subscriber(ns + '/mavros/setpoint_position/local', PoseStamped,
+                             lambda m: stamps.append(m.header.stamp.to_nsec()), tcp_nodelay=True)
+
+    def _mark(self, phase):
+        self.phases.setdefault(phase, time.monotonic() - self.t0)
+
+    def _state(self, msg):
+        if msg.connected:
+            self._mark('connected')
+        if msg.mode == 'OFFBOARD':
+            self._mark('offboard')
+        if msg.armed:
+            self._mark('armed')
+
+    def _pose(self, msg):
+        self.z = msg.pose.position.z
+        if 'armed' in self.phases and abs(self.z - 2.0) <= 0.1:
+            self._mark('hover')
+
+
+def processes(n):
+    """pid of each process of the stack, by (vehicle, role)."""
+    found = {}
+    for pid in filter(str.isdigit, os.listdir('/proc')):
+        try:
+            cmd = open('/proc/%s/cmdline' % pid, 'rb').read().split(b'\0')
+            env = open('/proc/%s/environ' % pid, 'rb').read().split(b'\0')
+        except OSError:
+            continue
+        text = b' '.join(cmd)
+        role = next((r for r, key in (('sim', b'sim_px4.py'), ('bridge', b'mavros_bridge.py'),
+                                      ('node', b'offb_node.py')) if key in text), None)
+        ns = next((e.split(b'=', 1)[1].decode() for e in env if e.startswith(b'ROS_NAMESPACE=')), '')
+        if role and ns.strip('/').startswith('uav'):
+            found[(int(ns.strip('/')[3:]), role)] = int(pid)
+    return found
+
+
+def cpu_seconds(pid):
+    fields = open('/proc/%d/stat' % pid).read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK
+
+
+def rss_mb(pid):
+    for line in open('/proc/%d/status' % pid):
+        if line.startswith('VmRSS:'):
+            return int(line.split()[1]) / 1024.0
+    return None
+
+
+def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0):
+    """Fly n vehicles to 2 m, hover duration_s, and measure."""
+    t0 = time.monotonic()
+    launch_log = open(os.path.join(logdir, 'launch-%d.log' % n), 'w')
+    launch = subprocess.Popen(['roslaunch', 'offboard_py', 'multi_uav.launch', 'n:=%d' % n, 'log_output:=log',
+                               'sim_args:=--setpoint-log %s' % logdir],
+                              stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not rosgraph.is_master_online():
+            if time.monotonic() > deadline or launch.poll() is not None:
+                raise RuntimeError('no ROS master within 60 s (see %s)' % launch_log.name)
+            time.sleep(0.2)
+        if not rospy.core.is_initialized():
+            rospy.init_node('benchmark', anonymous=True, disable_signals=True)
+        stamps = [] if latency else None
+        watches = [Watch('/uav%d' % i, t0, stamps if i == 0 else None) for i in range(n)]
+        deadline = time.monotonic() + startup_timeout_s
+        while not all('hover' in w.phases for w in watches):
+            if time.monotonic() > deadline:
+                missing = [i for i, w in enumerate(watches) if 'hover' not in w.phases]
+                raise RuntimeError('vehicles %s not hovering after %.0f s' % (missing, startup_timeout_s))
+            time.sleep(0.2)
+        pids = processes(n)
+        cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
+        window = (time.time_ns(), time.monotonic())
+        time.sleep(duration_s)
+        cpu = {k: (cpu_seconds(p) - cpu0[k]) / (time.monotonic() - window[1]) * 100.0 for k, p in pids.items()}
+        rss = {k: rss_mb(p) for k, p in pids.items()}
+        window_end = time.time_ns()
+    finally:
+        if launch.poll() is None:
+            os.killpg(launch.pid, signal.SIGINT)
+            try:
+                launch.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                os.killpg(launch.pid, signal.SIGKILL)
+        launch_log.close()
+    vehicles = []
+    for i in range(n):
+        rows = [tuple(map(int, line.split())) for line in open(os.path.join(logdir, 'setpoints-%d.txt' % i))]
+        inside = [r for r in rows if window[0] <= r[0] <= window_end]
+        quality = stream_quality([r[0] for r in inside])
+        entry = {'vehicle': i, 'stream': quality, 'phases_s': watches[i].phases,
+                 'cpu_pct': {role: cpu.get((i, role)) for role in ('node', 'bridge', 'sim')},
+                 'rss_mb': {role: rss.get((i, role)) for role in ('node', 'bridge', 'sim')}}
+        if latency and i == 0:
+            lat = latencies_ms(inside, stamps)
+            entry['latency_ms'] = {'count': len(lat), 'p50': percentile(lat, 50), 'p99': percentile(lat, 99),
+                                   'max': max(lat) if lat else None}
+        vehicles.append(entry)
+    return vehicles
+
+
+def fmt(value, digits=1):
+    return '-' if value is None else ('%.*f' % (digits, value))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--duration', type=float, default=60.0, help='hover seconds measured for one vehicle (60)')
+    p.add_argument('--scale', default='1,2,4,8,16,24', help='vehicle counts to try, in order (1,2,4,8,16,24)')
+    p.add_argument('--scale-duration', type=float, default=20.0, help='hover seconds per scaling step (20)')
+    p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench.json'), help='JSON output')
+    args = p.parse_args(rospy.myargv()[1:])
+    try:
+        scale = [int(v) for v in args.scale.split(',') if v.strip()]
+    except ValueError:
+        p.error('--scale takes whole numbers separated by commas, got %r' % args.scale)
+    if not scale or min(scale) < 1 or max(scale) > 99 or args.duration <= 1 or args.scale_duration <= 1:
+        p.error('--scale values must be 1..99 and durations above 1 s')
+    logdir = tempfile.mkdtemp(prefix='offboard_bench_')
+    result = {'machine': {'cores': os.cpu_count(), 'cpu': platform.processor() or platform.machine(),
+                          'python': platform.python_version(), 'kernel': platform.release()},
+              'command': ' '.join(sys.argv)}
+    print('one vehicle, %.0f s of hover ...' % args.duration, flush=True)
+    single = run(1, args.duration, logdir, latency=True)[0]
+    result['single'] = single
+    s, lat, ph = single['stream'], single['latency_ms'], single['phases_s']
+    lines = ['| measure (1 vehicle, %.0f s hover) | value | target |' % args.duration, '|---|---|---|',
+             '| setpoint rate at the FCU | %s Hz | 20.0 +- 0.5 %% |' % fmt(s['rate_hz'], 3),
+             '| inter-arrival p50 / p99 / max | %s / %s / %s ms | p99 <= 55, max <= 100 |'
+             % (fmt(s['p50_ms']), fmt(s['p99_ms']), fmt(s['max_ms'])),
+             '| gaps over 100 ms | %d | 0 |' % s['gaps_over_100ms'],
+             '| latency ROS publish -> FCU p50 / p99 / max | %s / %s / %s ms | p99 <= 2 |'
+             % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2))]
+    for role in ('node', 'bridge', 'sim'):
+        lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | |'
+                     % (role, fmt(single['cpu_pct'][role]), fmt(single['rss_mb'][role], 0)))
+    total = sum(v for v in single['cpu_pct'].values() if v is not None)
+    lines.append('| whole stack CPU per vehicle | %s %% | <= 5 %% |' % fmt(total))
+    lines.append('| start -> connected -> OFFBOARD -> armed -> hover (0.1 m) | %s / %s / %s / %s s | |'
+                 % tuple(fmt(ph.get(k)) for k in ('connected', 'offboard', 'armed', 'hover')))
+    print('\n'.join(lines), flush=True)
+    steps = []
+    largest = None
+    for n in scale:
+        print('%d vehicles, %.0f s of hover ...' % (n, args.scale_duration), flush=True)
+        try:
+            vehicles = run(n, args.scale_duration, logdir)
+        except RuntimeError as err:
+            steps.append({'n': n, 'error': str(err)})
+            print('  %s' % err, flush=True)
+            break
+        streams = [v['stream'] for v in vehicles]
+        ok = all(st and st['p99_ms'] <= BAR_P99_MS and st['max_ms'] <= BAR_MAX_MS for st in streams)
+        step = {'n': n, 'worst_rate_hz': min(st['rate_hz'] for st in streams),
+                'worst_p99_ms': max(st['p99_ms'] for st in streams), 'worst_max_ms': max(st['max_ms'] for st in streams),
+                'total_cpu_pct': sum(c or 0 for v in vehicles for c in v['cpu_pct'].values()), 'holds_bar': ok}
+        steps.append(step)
+        if not ok:
+            break
+        largest = n
+    result['scaling'] = steps
+    result['largest_n_holding_bar'] = largest
+    table = ['| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) | bar |',
+             '|---|---|---|---|---|---|']
+    for st in steps:
+        if 'error' in st:
+            table.append('| %d | failed: %s | | | | no |' % (st['n'], st['error']))
+        else:
+            table.append('| %d | %s | %s | %s | %s | %s |' % (st['n'], fmt(st['worst_rate_hz'], 2),
+                                                          fmt(st['worst_p99_ms']), fmt(st['worst_max_ms']),
+                                                          fmt(st['total_cpu_pct'], 0), 'yes' if st['holds_bar'] else 'no'))
+    table.append('\nlargest N holding p99 <= %.0f ms and no gap over %.0f ms: %s' % (BAR_P99_MS, BAR_MAX_MS, largest))
+    print('\n'.join(table), flush=True)
+    result['tables'] = {'single': lines, 'scaling': table}
+    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+    with open(args.out, 'w') as out:
+        json.dump(result, out, indent=2)
+    print('JSON: %s' % os.path.abspath(args.out))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
