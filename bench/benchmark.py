@@ -35,11 +35,15 @@ class Watch:
 
     def __init__(self, ns, t0, stamps=None):
         self.t0, self.phases, self.z, self.stamps = t0, {}, None, stamps
-        rospy.Subscriber(ns + '/mavros/state', State, self._state)
-        rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self._pose)
+        self.subs = [rospy.Subscriber(ns + '/mavros/state', State, self._state),
+                     rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self._pose)]
         if stamps is not None:
-            rospy.Subscriber(ns + '/mavros/setpoint_position/local', PoseStamped,
-                             lambda m: stamps.append(m.header.stamp.to_nsec()), tcp_nodelay=True)
+            self.subs.append(rospy.Subscriber(ns + '/mavros/setpoint_position/local', PoseStamped,
+                                              lambda m: stamps.append(m.header.stamp.to_nsec()), tcp_nodelay=True))
+
+    def close(self):
+        for sub in self.subs:
+            sub.unregister()
 
     def _mark(self, phase):
         self.phases.setdefault(phase, time.monotonic() - self.t0)
@@ -95,16 +99,9 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0):
     launch = subprocess.Popen(['roslaunch', 'offboard_py', 'multi_uav.launch', 'n:=%d' % n, 'log_output:=log',
                                'sim_args:=--setpoint-log %s' % logdir],
                               stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
+    stamps = [] if latency else None
+    watches = [Watch('/uav%d' % i, t0, stamps if i == 0 else None) for i in range(n)]
     try:
-        deadline = time.monotonic() + 60.0
-        while not rosgraph.is_master_online():
-            if time.monotonic() > deadline or launch.poll() is not None:
-                raise RuntimeError('no ROS master within 60 s (see %s)' % launch_log.name)
-            time.sleep(0.2)
-        if not rospy.core.is_initialized():
-            rospy.init_node('benchmark', anonymous=True, disable_signals=True)
-        stamps = [] if latency else None
-        watches = [Watch('/uav%d' % i, t0, stamps if i == 0 else None) for i in range(n)]
         deadline = time.monotonic() + startup_timeout_s
         while not all('hover' in w.phases for w in watches):
             if time.monotonic() > deadline:
@@ -119,6 +116,8 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0):
         rss = {k: rss_mb(p) for k, p in pids.items()}
         window_end = time.time_ns()
     finally:
+        for w in watches:
+            w.close()
         if launch.poll() is None:
             os.killpg(launch.pid, signal.SIGINT)
             try:
@@ -149,7 +148,7 @@ def fmt(value, digits=1):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--duration', type=float, default=60.0, help='hover seconds measured for one vehicle (60)')
-    p.add_argument('--scale', default='1,2,4,8,16,24', help='vehicle counts to try, in order (1,2,4,8,16,24)')
+    p.add_argument('--scale', default='1,2,4,8,16,24,32', help='vehicle counts to try, in order (1,2,4,8,16,24,32)')
     p.add_argument('--scale-duration', type=float, default=20.0, help='hover seconds per scaling step (20)')
     p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench.json'), help='JSON output')
     args = p.parse_args(rospy.myargv()[1:])
@@ -160,6 +159,26 @@ def main():
     if not scale or min(scale) < 1 or max(scale) > 99 or args.duration <= 1 or args.scale_duration <= 1:
         p.error('--scale values must be 1..99 and durations above 1 s')
     logdir = tempfile.mkdtemp(prefix='offboard_bench_')
+    # One master for every run: the benchmark's own node must stay registered with it.
+    core = None
+    if not rosgraph.is_master_online():
+        core = subprocess.Popen(['roscore'], stdout=open(os.path.join(logdir, 'roscore.log'), 'w'),
+                                stderr=subprocess.STDOUT, start_new_session=True)
+        deadline = time.monotonic() + 30.0
+        while not rosgraph.is_master_online():
+            if time.monotonic() > deadline or core.poll() is not None:
+                p.error('roscore did not start within 30 s (see %s/roscore.log)' % logdir)
+            time.sleep(0.2)
+    rospy.init_node('benchmark', anonymous=True, disable_signals=True)
+    try:
+        return _measure(args, scale, logdir)
+    finally:
+        if core is not None:
+            os.killpg(core.pid, signal.SIGINT)
+            core.wait(timeout=30)
+
+
+def _measure(args, scale, logdir):
     result = {'machine': {'cores': os.cpu_count(), 'cpu': platform.processor() or platform.machine(),
                           'python': platform.python_version(), 'kernel': platform.release()},
               'command': ' '.join(sys.argv)}
