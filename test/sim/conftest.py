@@ -11,7 +11,9 @@ import threading
 import time
 
 import pytest
-from pymavlink import mavutil
+
+os.environ.setdefault('MAVLINK20', '1')  # mavutil picks MAVLink 1 unless told; PX4 speaks 2
+from pymavlink import mavutil  # noqa: E402
 
 REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
 sys.path.insert(0, os.path.join(REPO, 'src'))

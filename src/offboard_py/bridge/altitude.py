@@ -11,6 +11,8 @@ class Altitude:
         bridge.on('ALTITUDE', self._on_altitude)
 
     def _on_altitude(self, alt):
+        if not self.pub.get_num_connections():
+            return
         msg = AltitudeMsg()
         msg.header.stamp, msg.header.frame_id = rospy.Time.now(), self.frame_id
         msg.monotonic, msg.amsl, msg.local = alt.altitude_monotonic, alt.altitude_amsl, alt.altitude_local

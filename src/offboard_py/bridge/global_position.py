@@ -15,6 +15,8 @@ class GlobalPosition:
         bridge.on('GLOBAL_POSITION_INT', self._on_global_position)
 
     def _on_global_position(self, gp):
+        if not self.pub.get_num_connections():
+            return  # nobody listens: skip the work (the topic is not latched)
         fix = NavSatFix()
         fix.header.stamp, fix.header.frame_id = rospy.Time.now(), self.frame_id
         fix.status.status, fix.status.service = NavSatStatus.STATUS_FIX, NavSatStatus.SERVICE_GPS

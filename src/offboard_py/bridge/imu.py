@@ -21,6 +21,8 @@ class Imu:
         self.accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
 
     def _on_attitude(self, att):
+        if not self.pub.get_num_connections():
+            return
         msg = ImuMsg()
         msg.header.stamp, msg.header.frame_id = rospy.Time.now(), 'base_link'
         q = msg.orientation

@@ -30,17 +30,20 @@ class LocalPosition:
         self.angular_enu = frames.rotate(self.orientation_enu, rates_flu)
 
     def _on_local_position(self, pos):
+        # non-latched topics: build nothing for a topic nobody listens to
         stamp = rospy.Time.now()
-        pose = PoseStamped()
-        pose.header.stamp, pose.header.frame_id = stamp, self.frame_id
-        p = pose.pose.position
-        p.x, p.y, p.z = frames.ned_to_enu(pos.x, pos.y, pos.z)
-        q = pose.pose.orientation
-        q.x, q.y, q.z, q.w = self.orientation_enu
-        self.pose_pub.publish(pose)
-        twist = TwistStamped()
-        twist.header.stamp, twist.header.frame_id = stamp, self.frame_id
-        lin, ang = twist.twist.linear, twist.twist.angular
-        lin.x, lin.y, lin.z = frames.ned_to_enu(pos.vx, pos.vy, pos.vz)
-        ang.x, ang.y, ang.z = self.angular_enu
-        self.velocity_pub.publish(twist)
+        if self.pose_pub.get_num_connections():
+            pose = PoseStamped()
+            pose.header.stamp, pose.header.frame_id = stamp, self.frame_id
+            p = pose.pose.position
+            p.x, p.y, p.z = frames.ned_to_enu(pos.x, pos.y, pos.z)
+            q = pose.pose.orientation
+            q.x, q.y, q.z, q.w = self.orientation_enu
+            self.pose_pub.publish(pose)
+        if self.velocity_pub.get_num_connections():
+            twist = TwistStamped()
+            twist.header.stamp, twist.header.frame_id = stamp, self.frame_id
+            lin, ang = twist.twist.linear, twist.twist.angular
+            lin.x, lin.y, lin.z = frames.ned_to_enu(pos.vx, pos.vy, pos.vz)
+            ang.x, ang.y, ang.z = self.angular_enu
+            self.velocity_pub.publish(twist)

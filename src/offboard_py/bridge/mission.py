@@ -62,7 +62,7 @@ class Mission:
             bridge.on(name, self._to_transfer)
         bridge.on('MISSION_CURRENT', self._on_current)
         bridge.on('MISSION_ITEM_REACHED', self._on_reached)
-        bridge.on_connection(self._on_connection)
+        bridge.after_connect(PULL_AFTER_CONNECT_S, self._auto_pull)
         self._publish()
 
     # -- receive thread ----------------------------------------------------------------------
@@ -84,12 +84,6 @@ class Mission:
         out.header.stamp, out.wp_seq = rospy.Time.now(), msg.seq
         rospy.loginfo('WP: reached #%d', msg.seq)
         self.reached_pub.publish(out)
-
-    def _on_connection(self, connected):
-        if connected:
-            timer = threading.Timer(PULL_AFTER_CONNECT_S, self._auto_pull)
-            timer.daemon = True
-            timer.start()
 
     def _auto_pull(self):
         if self.bridge.connected and not rospy.is_shutdown():

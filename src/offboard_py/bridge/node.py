@@ -108,6 +108,15 @@ class Bridge:
         """callback(connected) on every change of the FCU connection."""
         self._connection_listeners.append(callback)
 
+    def after_connect(self, delay_s, callback):
+        """Call callback() delay_s after every new connection (from a timer thread)."""
+        def start(connected):
+            if connected:
+                timer = threading.Timer(delay_s, callback)
+                timer.daemon = True
+                timer.start()
+        self.on_connection(start)
+
     def set_connected(self, connected):
         if connected != self.connected:
             self.connected = connected

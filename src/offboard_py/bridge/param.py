@@ -51,13 +51,7 @@ class Param:
                          rospy.Service('~param/get', ParamGet, self._get),
                          rospy.Service('~param/set', ParamSet, self._set)]
         bridge.on('PARAM_VALUE', self._on_value)
-        bridge.on_connection(self._on_connection)
-
-    def _on_connection(self, connected):
-        if connected:
-            timer = threading.Timer(PULL_AFTER_CONNECT_S, self._auto_pull)
-            timer.daemon = True
-            timer.start()
+        bridge.after_connect(PULL_AFTER_CONNECT_S, self._auto_pull)
 
     def _auto_pull(self):
         if self.bridge.connected and not rospy.is_shutdown() and not self.complete():

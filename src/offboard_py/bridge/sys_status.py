@@ -85,6 +85,8 @@ class SysStatus:
             self._publish_disconnected()
 
     def _on_extended_state(self, ext):
+        if not self.extended_pub.get_num_connections():
+            return
         msg = ExtendedState()
         msg.header.stamp = rospy.Time.now()
         msg.vtol_state, msg.landed_state = ext.vtol_state, ext.landed_state

@@ -1,0 +1,126 @@
+"""Hostile input to the simulated PX4: no crash, no hang, no state change from what PX4 rejects.
+
+10 000 datagrams (set OFFBOARD_PY_FUZZ_FRAMES for a longer run): random bytes, valid frames
+with flipped bits (bad CRC), truncated frames, unknown message ids, valid frames for another
+system (MAVLink 1 and 2), out-of-range enums and NaN fields for this system.
+"""
+
+import math
+import os
+import random
+import socket
+import struct
+import time
+
+from pymavlink.dialects.v10 import common as mavlink1
+from pymavlink.dialects.v20 import development as mavlink2
+
+from conftest import ACCEPTED
+
+INSTANCE = 30
+TARGET = INSTANCE + 1
+FRAMES = int(os.environ.get('OFFBOARD_PY_FUZZ_FRAMES', '10000'))
+
+
+def hostile_frames(rng, count):
+    v2 = mavlink2.MAVLink(None, srcSystem=200, srcComponent=1)
+    v1 = mavlink1.MAVLink(None, srcSystem=201, srcComponent=1)
+    nan = float('nan')
+    valid_for_us = [
+        v2.command_long_encode(TARGET, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0),       # arm (corrupted below)
+        v2.set_mode_encode(TARGET, 1, (6 << 16)),
+        v2.param_set_encode(TARGET, 1, b'MIS_TAKEOFF_ALT', 9.0, 9),
+        v2.mission_clear_all_encode(TARGET, 1, 0),
+    ]
+    other_system = [
+        v2.command_long_encode(42, 1, 400, 0, 1, 21196, 0, 0, 0, 0, 0),
+        v2.set_mode_encode(42, 1, 6 << 16),
+        v2.param_set_encode(42, 1, b'MIS_TAKEOFF_ALT', 9.0, 9),
+        v2.mission_count_encode(42, 1, 5, 0),
+        v1.command_long_encode(43, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0),
+        v1.set_mode_encode(43, 1, 6 << 16),
+        v1.param_set_encode(43, 1, b'COM_OF_LOSS_T', 9.0, 9),
+    ]
+    rejected_by_px4 = [
+        v2.set_mode_encode(TARGET, 1, (99 << 16)),                             # no such main mode
+        v2.set_mode_encode(TARGET, 1, (4 << 16) | (77 << 24)),                 # no such sub mode
+        v2.command_long_encode(TARGET, 1, 176, 0, 1, 4, 1, 0, 0, 0, 0),        # AUTO.READY: refused
+        v2.command_long_encode(TARGET, 1, 400, 0, 0.5, 0, 0, 0, 0, 0, 0),      # arm with param1 0.5
+        v2.command_long_encode(TARGET, 1, 176, 0, nan, nan, nan, 0, 0, 0, 0),  # NaN mode
+        v2.command_long_encode(TARGET, 1, 400, 0, nan, 0, 0, 0, 0, 0, 0),      # NaN arm
+        v2.param_set_encode(TARGET, 1, b'MIS_TAKEOFF_ALT', nan, 9),            # NaN float parameter
+        v2.param_set_encode(TARGET, 1, b'COM_OBL_RC_ACT', nan, 6),             # NaN int parameter
+        v2.param_set_encode(TARGET, 1, b'COM_OF_LOSS_T', 1e9, 9),              # out of range
+        v2.param_set_encode(TARGET, 1, b'NO_SUCH_PARAM', 1.0, 9),
+        v2.set_position_target_local_ned_encode(0, TARGET, 1, 99, 0x9F8, 0, 0, -2, 0, 0, 0, 0, 0, 0, 0, 0),
+        v2.set_position_target_local_ned_encode(0, TARGET, 1, 1, 0x9F8, nan, nan, nan, 0, 0, 0, 0, 0, 0, nan, 0),
+        v2.set_position_target_local_ned_encode(0, TARGET, 1, 1, 0x9F8, 0, 0, math.inf, 0, 0, 0, 0, 0, 0, 0, 0),
+        v2.mission_item_int_encode(TARGET, 1, 3, 6, 16, 0, 1, 0, 0, 0, 0, 0, 0, 5.0, 0),  # item, no upload
+        v2.mission_request_int_encode(TARGET, 1, 9999, 0),
+        v2.mission_count_encode(TARGET, 1, 60000, 0),                          # too many items
+    ]
+    corruptible = [m.pack(v2) for m in valid_for_us]
+    for_others = [m.pack(v2) for m in other_system[:4]] + [m.pack(v1) for m in other_system[4:]]
+    refused = [m.pack(v2) for m in rejected_by_px4]
+    kinds = ('random', 'bitflip', 'truncated', 'unknown_id', 'other_system', 'rejected', 'mixed')
+    for i in range(count):
+        kind = kinds[i % len(kinds)]
+        if kind == 'random':
+            yield bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 280)))
+        elif kind == 'bitflip':
+            frame = bytearray(rng.choice(corruptible))
+            for bit in rng.sample(range(8, len(frame) * 8), rng.randint(1, 3)):  # distinct bits: never a no-op
+                frame[bit // 8] ^= 1 << (bit % 8)
+            yield bytes(frame)
+        elif kind == 'truncated':
+            frame = rng.choice(corruptible)
+            yield frame[:rng.randint(1, len(frame) - 1)]
+        elif kind == 'unknown_id':
+            payload = bytes(rng.getrandbits(8) for _ in range(rng.randint(0, 40)))
+            msgid = rng.randint(20000, 0xFFFFFF)
+            header = struct.pack('<BBBBBBB', 0xFD, len(payload), 0, 0, i & 0xFF, 200, 1) + msgid.to_bytes(3, 'little')
+            yield header + payload + bytes(rng.getrandbits(8) for _ in range(2))
+        elif kind == 'other_system':
+            yield rng.choice(for_others)
+        elif kind == 'rejected':
+            yield rng.choice(refused)
+        else:  # several frames in one datagram, v1 and v2 mixed with garbage between
+            yield b''.join(rng.choice(for_others + refused) + bytes(rng.getrandbits(8) for _ in range(rng.randint(0, 5)))
+                           for _ in range(rng.randint(2, 5)))
+
+
+def read_param(client, name):
+    client.latest.pop('PARAM_VALUE', None)
+    client.send(client.mav.param_request_read_encode(client.target, 1, name.encode(), -1))
+    msg = client.wait_for(lambda: client.latest.get('PARAM_VALUE'), 3.0, 'PARAM_VALUE ' + name)
+    return msg.param_value
+
+
+def test_fuzz_changes_nothing(start_sim):
+    sim, client = start_sim(INSTANCE, '--ready-delay', '1')
+    time.sleep(1.2)
+    before = {name: read_param(client, name) for name in ('MIS_TAKEOFF_ALT', 'COM_OF_LOSS_T', 'COM_OBL_RC_ACT')}
+    raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rng = random.Random(2026)
+    sent = 0
+    started = time.monotonic()
+    for data in hostile_frames(rng, FRAMES):
+        raw.sendto(data, ('127.0.0.1', 14580 + INSTANCE))
+        sent += 1
+        if sent % 40 == 0:
+            time.sleep(0.004)  # paced so the kernel delivers them all to the parser
+    assert sent == FRAMES
+    assert sim.proc.poll() is None, 'the simulator died:\n' + '\n'.join(sim.lines[-20:])
+    assert not any('Traceback' in line for line in sim.lines), '\n'.join(sim.lines[-20:])
+    # take the link back (valid frames from the fuzzer moved the simulator's remote, as on PX4)
+    after = {name: read_param(client, name) for name in before}
+    assert after == before, 'parameters changed: %s -> %s' % (before, after)
+    client.wait_for(lambda: client.latest['HEARTBEAT'] and time.monotonic() - started > 0, 3.0, 'heartbeat')
+    time.sleep(1.2)
+    assert client.mode() == 'AUTO.LOITER' and not client.armed(), client.describe()
+    start = len(client.history)
+    client.send(client.mav.mission_request_list_encode(client.target, 1, 0))
+    count = client.wait_for(lambda: next((m for _, m in client.history[start:] if m.get_type() == 'MISSION_COUNT'),
+                                         None), 3.0, 'MISSION_COUNT')
+    assert count.count == 0, 'no mission was uploaded by the fuzz'
+    assert client.arm() == ACCEPTED, 'still answering commands'

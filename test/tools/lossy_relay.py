@@ -1,0 +1,97 @@
+#!/usr/bin/env python3
+"""A lossy UDP link for tests: sits between the bridge and the simulated PX4.
+
+Side A faces the FCU (the simulator sends to --fcu-port), side B faces the bridge
+(its fcu_url sends to --bridge-port). Each side learns its peer from the
+first datagram. Every datagram may be dropped, duplicated, delayed or reordered, and the
+link can be cut for a while (--cut START:SECONDS, repeatable, seconds after start).
+Runs as a roslaunch node too (name:=value arguments are ignored). Loopback only.
+"""
+
+import argparse
+import heapq
+import random
+import select
+import socket
+import sys
+import time
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--fcu-port', type=int, required=True, help='UDP port the FCU sends to')
+    p.add_argument('--bridge-port', type=int, required=True, help='UDP port the bridge sends to')
+    p.add_argument('--drop', type=float, default=0.0, help='probability of dropping a datagram (0..1)')
+    p.add_argument('--duplicate', type=float, default=0.0, help='probability of sending it twice')
+    p.add_argument('--delay-ms', type=float, default=0.0, help='delay added to every datagram')
+    p.add_argument('--jitter-ms', type=float, default=0.0, help='uniform random extra delay (reorders)')
+    p.add_argument('--cut', action='append', default=[], metavar='START:SECONDS', help='cut the link')
+    p.add_argument('--seed', type=int, default=1)
+    args = p.parse_args([a for a in argv if ':=' not in a])
+    for name in ('drop', 'duplicate'):
+        if not 0.0 <= getattr(args, name) <= 1.0:
+            p.error('--%s must be between 0 and 1' % name)
+    try:
+        args.cuts = [tuple(float(v) for v in c.split(':')) for c in args.cut]
+    except ValueError:
+        p.error('--cut takes START:SECONDS')
+    return args
+
+
+def main(argv=None):
+    args = parse_args(sys.argv[1:] if argv is None else argv)
+    rng = random.Random(args.seed)
+    sides = {}
+    for name, port in (('fcu', args.fcu_port), ('bridge', args.bridge_port)):
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.bind(('127.0.0.1', port))
+        sock.setblocking(False)
+        sides[name] = sock
+    peers = {'fcu': None, 'bridge': None}
+    other = {'fcu': 'bridge', 'bridge': 'fcu'}
+    queue = []  # (due, seq, side to send from, data)
+    seq = 0
+    start = time.monotonic()
+    stats = {'forwarded': 0, 'dropped': 0, 'duplicated': 0, 'cut': 0}
+    try:
+        while True:
+            timeout = max(0.0, queue[0][0] - time.monotonic()) if queue else 0.5
+            readable, _, _ = select.select(list(sides.values()), [], [], timeout)
+            now = time.monotonic()
+            for name, sock in sides.items():
+                if sock not in readable:
+                    continue
+                while True:
+                    try:
+                        data, addr = sock.recvfrom(65535)
+                    except (BlockingIOError, ConnectionRefusedError):
+                        break
+                    peers[name] = addr
+                    elapsed = now - start
+                    if any(s <= elapsed < s + d for s, d in args.cuts):
+                        stats['cut'] += 1
+                        continue
+                    if rng.random() < args.drop:
+                        stats['dropped'] += 1
+                        continue
+                    copies = 2 if rng.random() < args.duplicate else 1
+                    stats['duplicated'] += copies - 1
+                    for _ in range(copies):
+                        due = now + (args.delay_ms + rng.uniform(0.0, args.jitter_ms)) / 1000.0
+                        seq += 1
+                        heapq.heappush(queue, (due, seq, other[name], data))
+            while queue and queue[0][0] <= time.monotonic():
+                _, _, side, data = heapq.heappop(queue)
+                if peers[side] is not None:
+                    try:
+                        sides[side].sendto(data, peers[side])
+                        stats['forwarded'] += 1
+                    except OSError:
+                        pass
+    except KeyboardInterrupt:
+        print('lossy_relay: %s' % stats)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
