@@ -176,7 +176,9 @@ class MavlinkLink:
             self.on_datagram(data)
         for msg in valid:
             self.stats['received'] += 1
-            for handler in self.handlers.get(msg.get_type(), []) + self.any_handlers:
+            for handler in self.handlers.get(msg.get_type(), ()):
+                self._call(handler, msg)
+            for handler in self.any_handlers:
                 self._call(handler, msg)
 
     def _call(self, handler, msg):
