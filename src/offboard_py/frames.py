@@ -83,7 +83,3 @@ def rotate(q, v):
 
 def wxyz_to_xyzw(w, x, y, z):
     return x, y, z, w
-
-
-def xyzw_to_wxyz(q):
-    return q[3], q[0], q[1], q[2]

@@ -89,7 +89,6 @@ class MavlinkLink:
         self._send_lock = threading.Lock()  # pymavlink's sequence counter is not thread-safe
         self.mav.robust_parsing = True
         self.handlers = {}
-        self.any_handlers = []
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
         self.stats = collections.Counter()
         self.last_receive_s = None
@@ -112,10 +111,6 @@ class MavlinkLink:
     def on(self, msg_type, handler):
         """Call handler(msg) for every message of type `msg_type` (e.g. 'HEARTBEAT')."""
         self.handlers.setdefault(msg_type, []).append(handler)
-
-    def on_any(self, handler):
-        """Call handler(msg) for every valid message (after the typed handlers)."""
-        self.any_handlers.append(handler)
 
     def send(self, msg):
         """Pack and send a pymavlink message; False when no remote is known yet."""
@@ -177,8 +172,6 @@ class MavlinkLink:
         for msg in valid:
             self.stats['received'] += 1
             for handler in self.handlers.get(msg.get_type(), ()):
-                self._call(handler, msg)
-            for handler in self.any_handlers:
                 self._call(handler, msg)
 
     def _call(self, handler, msg):
