@@ -7,13 +7,23 @@
   to the handlers registered for its type: a plugin is a set of handlers, not a branch
   in one long if/elif chain. Malformed bytes are counted and dropped, never raised.
 
+- `enable_signing()` turns on MAVLink 2 message signing: every frame we send is signed,
+  and when signing is required a received frame without a valid signature is dropped and
+  counted (`stats['unsigned_rejected']`, `stats['bad_signature']`), except the few
+  messages PX4 always takes unsigned. The key file is PX4's: 32 key bytes, optionally
+  followed by the 64-bit little-endian timestamp.
+
 It knows nothing of ROS or of the simulator; the caller owns the receive loop
 (`fileno()` for select, `receive()` to drain the socket).
 """
 
 import collections
 import errno
+import hashlib
+import hmac
 import logging
+import os
+import struct
 import socket
 import threading
 import time
@@ -28,7 +38,48 @@ DEFAULT_REMOTE_PORT = 14550
 DEFAULT_BIND_HOST = '127.0.0.1'
 MAX_DATAGRAM = 65535
 
+# MAVLink signing: timestamps count 10 us units since 2015-01-01 00:00:00 UTC.
+SIGNING_EPOCH_UNIX_S = 1420070400
+SIGNING_KEY_LENGTH = 32
+# A new stream is accepted only if its timestamp is at most one minute behind ours.
+SIGNING_NEW_STREAM_WINDOW = 60 * 100000
+# What PX4 accepts unsigned even when signing is required (mavlink_sign_control.cpp).
+ALWAYS_ACCEPTED_UNSIGNED = frozenset((mavlink.MAVLINK_MSG_ID_RADIO_STATUS, mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE,
+                                      mavlink.MAVLINK_MSG_ID_COLLISION))
+
 log = logging.getLogger(__name__)
+
+
+class SigningKeyError(ValueError):
+    """A signing key file that cannot be used; the message names the file."""
+
+
+def signing_timestamp_now():
+    return max(0, int((time.time() - SIGNING_EPOCH_UNIX_S) * 100000))
+
+
+def read_signing_key(path):
+    """PX4's key file (32 key bytes, then an optional uint64 LE timestamp) -> (key, timestamp)."""
+    try:
+        with open(path, 'rb') as f:
+            data = f.read(SIGNING_KEY_LENGTH + 9)
+    except OSError as err:
+        raise SigningKeyError('signing key file %s: %s' % (path, err.strerror or err))
+    if len(data) not in (SIGNING_KEY_LENGTH, SIGNING_KEY_LENGTH + 8):
+        raise SigningKeyError('signing key file %s: %d bytes; expected a 32-byte key, optionally followed by an '
+                              '8-byte timestamp (as PX4 stores it)' % (path, len(data)))
+    key = data[:SIGNING_KEY_LENGTH]
+    timestamp = struct.unpack('<Q', data[SIGNING_KEY_LENGTH:])[0] if len(data) > SIGNING_KEY_LENGTH else 0
+    if not any(key):
+        raise SigningKeyError('signing key file %s: the key is all zeros, which means "no key" in MAVLink' % path)
+    return key, timestamp
+
+
+def write_signing_key(path, key, timestamp=0):
+    """Write a key file in PX4's format, readable by its owner only."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, 'wb') as f:
+        f.write(bytes(key) + struct.pack('<Q', timestamp))
 
 
 class UrlError(ValueError):
@@ -92,6 +143,10 @@ class MavlinkLink:
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
         self.stats = collections.Counter()
         self.last_receive_s = None
+        self.signing_required = False
+        self.warn = log.warning  # where signing rejections are reported (the bridge uses rospy)
+        self._streams = {}  # (link_id, sysid, compid) -> last accepted signing timestamp
+        self._signature_failed = False
 
     @staticmethod
     def _resolve(address):
@@ -112,11 +167,83 @@ class MavlinkLink:
         """Call handler(msg) for every message of type `msg_type` (e.g. 'HEARTBEAT')."""
         self.handlers.setdefault(msg_type, []).append(handler)
 
+    # -- signing ----------------------------------------------------------------------------
+
+    @property
+    def signing(self):
+        return self.mav.signing.secret_key is not None
+
+    def enable_signing(self, key, timestamp=0, required=True, link_id=0):
+        """Sign what we send with `key`; if `required`, drop what is not signed with it."""
+        if len(key) != SIGNING_KEY_LENGTH or not any(key):
+            raise SigningKeyError('a signing key is 32 bytes, not all zero')
+        s = self.mav.signing
+        with self._send_lock:
+            s.secret_key = bytes(key)
+            s.link_id = link_id
+            s.timestamp = max(timestamp, signing_timestamp_now())
+            s.sign_outgoing = True
+            s.allow_unsigned_callback = self._accept_unsigned
+        self.mav.check_signature = self._check_signature  # pymavlink's marks the stream before checking
+        self.signing_required = required
+        self._streams.clear()
+
+    def disable_signing(self):
+        s = self.mav.signing
+        with self._send_lock:
+            s.secret_key, s.sign_outgoing, s.allow_unsigned_callback = None, False, None
+        self.signing_required = False
+
+    def _check_signature(self, msgbuf, src_system, src_component):
+        """Signature first, then the replay rules, and only a genuine frame moves a stream on."""
+        s = self.mav.signing
+        expected = hashlib.sha256(s.secret_key + bytes(msgbuf[:-6])).digest()[:6]
+        if not hmac.compare_digest(expected, bytes(msgbuf[-6:])):
+            self._signature_failed = True
+            return False
+        link_id = msgbuf[-13]
+        timestamp = int.from_bytes(msgbuf[-12:-6], 'little')
+        stream = (link_id, src_system, src_component)
+        last = self._streams.get(stream)
+        if (timestamp <= last) if last is not None else (timestamp + SIGNING_NEW_STREAM_WINDOW < s.timestamp):
+            self.stats['replayed'] += 1
+            self._signature_failed = True
+            return False
+        self._streams[stream] = timestamp
+        s.timestamp = max(s.timestamp, timestamp)
+        return True
+
+    def _accept_unsigned(self, _mav, msg_id):
+        """pymavlink asks this for an unsigned frame, or a signed one that failed the check."""
+        failed, self._signature_failed = self._signature_failed, False
+        if not self.signing_required or msg_id in ALWAYS_ACCEPTED_UNSIGNED:
+            return True
+        if not failed:
+            self.stats['unsigned_rejected'] += 1
+        else:
+            self.stats['bad_signature'] += 1
+        kind = mavlink.mavlink_map.get(msg_id)
+        self.rejected_log(kind.msgname if kind else 'message id %d' % msg_id, failed)
+        return False
+
+    def rejected_log(self, name, bad_signature):
+        """Log the first rejections and then every 100th: an attack must not flood the log."""
+        total = self.stats['unsigned_rejected'] + self.stats['bad_signature']
+        if total <= 3 or total % 100 == 0:
+            self.warn('signing: rejected %s %s (%d unsigned, %d badly signed so far)',
+                        'a badly signed' if bad_signature else 'an unsigned', name,
+                        self.stats['unsigned_rejected'], self.stats['bad_signature'])
+
+    # -- send and receive -------------------------------------------------------------------
+
     def send(self, msg):
         """Pack and send a pymavlink message; False when no remote is known yet."""
         if self.remote is None:
             return False
         with self._send_lock:
+            if self.mav.signing.sign_outgoing:
+                s = self.mav.signing
+                s.timestamp = max(s.timestamp, signing_timestamp_now())
             data = msg.pack(self.mav)
         return self.send_bytes(data)
 
@@ -165,8 +292,11 @@ class MavlinkLink:
         if not valid:
             return
         self.last_receive_s = time.monotonic()
-        if sender is not None and self.learn_remote and sender != self.remote:
-            self.remote = sender  # before dispatch: replies go to whoever asked
+        if sender is not None and self.learn_remote and sender != self.remote and (
+                not self.signing or any(m._signed for m in valid)):
+            # before dispatch: replies go to whoever asked; with signing on, only a signed
+            # frame moves the link (an unsigned RADIO_STATUS is let in, not followed)
+            self.remote = sender
         if self.on_datagram is not None:
             self.on_datagram(data)
         for msg in valid:

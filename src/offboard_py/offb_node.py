@@ -55,7 +55,12 @@ class OffbNode:
             if not self.logic.should_stream():
                 return
         self.setpoint.header.stamp = rospy.Time.now()
-        self.setpoint_pub.publish(self.setpoint)
+        try:
+            self.setpoint_pub.publish(self.setpoint)
+        except rospy.ROSException:
+            if rospy.is_shutdown():
+                return  # the timer fired while rospy closed the topic at shutdown
+            raise
         with self.lock:
             self.logic.on_setpoint_sent(rospy.get_time())
 

@@ -15,7 +15,7 @@ import time
 
 import rospy
 
-from offboard_py.mavlink_link import MavlinkLink, UrlError, parse_udp_url
+from offboard_py.mavlink_link import MavlinkLink, SigningKeyError, UrlError, parse_udp_url, read_signing_key
 from offboard_py.bridge import (altitude, command, global_position, home_position, imu, local_position,
                                 mission, param, setpoint, sys_status)
 
@@ -41,7 +41,7 @@ def read_config(get):
     """All node parameters through get(name, default), checked. Raises ConfigError."""
     cfg = {}
     for name, default in (('fcu_url', DEFAULT_FCU_URL), ('gcs_url', ''), ('local_position/frame_id', 'map'),
-                          ('global_position/frame_id', 'map')):
+                          ('global_position/frame_id', 'map'), ('signing/key_file', '')):
         value = get(name, default)
         if not isinstance(value, str):
             raise ConfigError('parameter ~%s: expected a string, got %r' % (name, value))
@@ -62,6 +62,16 @@ def read_config(get):
             raise ConfigError('parameter ~%s: %s' % (name, err))
     if cfg['fcu'] is None:
         raise ConfigError('parameter ~fcu_url: empty')
+    required = get('signing/required', True)
+    if not isinstance(required, bool):
+        raise ConfigError('parameter ~signing/required: expected true or false, got %r' % (required,))
+    cfg['signing/required'] = required
+    cfg['signing'] = None
+    if cfg['signing/key_file']:
+        try:
+            cfg['signing'] = read_signing_key(cfg['signing/key_file'])
+        except SigningKeyError as err:
+            raise ConfigError('parameter ~signing/key_file: %s' % err)
     return cfg
 
 
@@ -72,6 +82,9 @@ class Bridge:
         self.target_component = cfg['target_component_id']
         (bind, remote) = cfg['fcu']
         self.link = MavlinkLink(bind, remote, cfg['system_id'], cfg['component_id'])
+        self.link.warn = rospy.logwarn
+        if cfg['signing']:
+            self.link.enable_signing(*cfg['signing'], required=cfg['signing/required'])
         self.mav = self.link.mav
         self.gcs = None
         if cfg['gcs']:
@@ -167,6 +180,9 @@ def main():
         return 2
     rospy.loginfo('FCU: %s (bound to %s:%d, %s)', cfg['fcu_url'], bridge.link.bind[0], bridge.link.bind[1],
                   'sending to %s:%d' % bridge.link.remote if bridge.link.remote else 'waiting for the FCU to talk')
+    if cfg['signing']:
+        rospy.loginfo('MAVLink signing on (key %s): unsigned input is %s', cfg['signing/key_file'],
+                      'rejected' if cfg['signing/required'] else 'accepted')
     bridge.start()
     try:
         rospy.spin()

@@ -11,7 +11,7 @@ import math
 import select
 import time
 
-from offboard_py.mavlink_link import MavlinkLink, mavlink
+from offboard_py.mavlink_link import MavlinkLink, SigningKeyError, mavlink, read_signing_key, write_signing_key
 from offboard_py.sim import commander as cmdr
 from offboard_py.sim import mission as missions
 from offboard_py.sim import params as sim_params
@@ -36,7 +36,7 @@ DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
                  param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=time.monotonic,
-                 setpoint_log=None):
+                 setpoint_log=None, signing_key_file=None, allowed_systems=()):
         self.clock = clock
         self.system_id = instance + 1
         self.rate_hz = rate_hz
@@ -59,7 +59,17 @@ class SimulatedPx4:
         self.telemetry = telemetry.TelemetryBuilder(self.mav, self.commander, self.frame, self.params, 0.0)
         self.setpoint_log = setpoint_log  # path: arrival times of accepted setpoints, written at close
         self.setpoint_arrivals = []  # (wall ns, time_boot_ms the setpoint carried)
-        self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0}
+        self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
+                         'not_allowed': 0}
+        # Signing as PX4 does it with a key on its SD card: outgoing signed, incoming must be.
+        self.signing_key_file = signing_key_file
+        if signing_key_file:
+            try:
+                self.link.enable_signing(*read_signing_key(signing_key_file), required=True)
+            except SigningKeyError:
+                self.link.close()
+                raise
+        self.allowed_systems = frozenset(allowed_systems)  # empty: commands from anyone
         self._register()
         self.running = False
 
@@ -70,23 +80,38 @@ class SimulatedPx4:
     # -- receive ---------------------------------------------------------------------------
 
     def _register(self):
-        on = self.link.on
-        on('COMMAND_LONG', self._on_command)
-        on('COMMAND_INT', self._on_command)
-        on('SET_MODE', self._on_set_mode)
-        on('SET_POSITION_TARGET_LOCAL_NED', self._on_setpoint)
+        on, control = self.link.on, self._control
+        # what changes the vehicle (commands, setpoints, parameters, missions, the key) is
+        # taken from the allowed systems only; reading is open to anyone
+        control('COMMAND_LONG', self._on_command)
+        control('COMMAND_INT', self._on_command)
+        control('SET_MODE', self._on_set_mode)
+        control('SET_POSITION_TARGET_LOCAL_NED', self._on_setpoint)
+        control('PARAM_SET', self._on_param_set)
+        control('SETUP_SIGNING', self._on_setup_signing)
+        control('MISSION_COUNT', self._mission(lambda m, t: self.transfer.on_count(m, t)))
+        control('MISSION_ITEM_INT', self._mission(lambda m, t: self.transfer.on_item(m, t)))
+        control('MISSION_ITEM', self._mission(lambda m, t: self.transfer.on_item(m, t)))
+        control('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.transfer.on_clear_all(m)))
+        control('MISSION_SET_CURRENT', self._mission(lambda m, t: self._set_current(m.seq)))
         on('PARAM_REQUEST_LIST', self._on_param_request_list)
         on('PARAM_REQUEST_READ', self._on_param_request_read)
-        on('PARAM_SET', self._on_param_set)
-        on('MISSION_COUNT', self._mission(lambda m, t: self.transfer.on_count(m, t)))
-        on('MISSION_ITEM_INT', self._mission(lambda m, t: self.transfer.on_item(m, t)))
-        on('MISSION_ITEM', self._mission(lambda m, t: self.transfer.on_item(m, t)))
         on('MISSION_REQUEST_LIST', self._mission(lambda m, t: self.transfer.on_request_list(m)))
         on('MISSION_REQUEST_INT', self._mission(lambda m, t: self.transfer.on_request(m)))
         on('MISSION_REQUEST', self._mission(lambda m, t: self.transfer.on_request(m)))
-        on('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.transfer.on_clear_all(m)))
-        on('MISSION_SET_CURRENT', self._mission(lambda m, t: self._set_current(m.seq)))
         on('TIMESYNC', self._on_timesync)
+
+    def _control(self, msg_type, handler):
+        def handle(msg):
+            if not self.allowed_systems or msg.get_srcSystem() in self.allowed_systems:
+                handler(msg)
+                return
+            self.counters['not_allowed'] += 1
+            n = self.counters['not_allowed']
+            if n <= 3 or n % 100 == 0:
+                log.warning('ignored %s from system %d: not in the allowed systems %s (%d ignored so far)',
+                            msg_type, msg.get_srcSystem(), sorted(self.allowed_systems), n)
+        self.link.on(msg_type, handle)
 
     def _for_me(self, msg):
         """PX4 takes messages for its system id or for all (0), on component 1 or all (0)."""
@@ -222,6 +247,24 @@ class SimulatedPx4:
             self._text(cmdr.SEV_WARNING, str(err))
         self.link.send(self._param_value(name))  # the value in force, changed or not
 
+    def _on_setup_signing(self, msg):
+        """SETUP_SIGNING sets the key (all zeros clears it); with a key in force, only a frame
+        signed with it gets this far. The key file is rewritten, as PX4 does."""
+        if not self._for_me(msg):
+            return
+        key = bytes(msg.secret_key)
+        if any(key):
+            self.link.enable_signing(key, msg.initial_timestamp, required=True)
+            log.info('signing key set by SETUP_SIGNING from system %d', msg.get_srcSystem())
+        else:
+            self.link.disable_signing()
+            log.info('signing key cleared by SETUP_SIGNING from system %d', msg.get_srcSystem())
+        if self.signing_key_file:
+            try:
+                write_signing_key(self.signing_key_file, key, msg.initial_timestamp)
+            except OSError as err:
+                log.error('cannot write the signing key file %s: %s', self.signing_key_file, err)
+
     def _on_timesync(self, msg):
         if msg.tc1 == 0:
             self.link.send(self.mav.timesync_encode(int(self.clock() * 1e9), msg.ts1))
@@ -296,6 +339,8 @@ class SimulatedPx4:
         self.running = False
 
     def close(self):
+        log.info('link: %s; vehicle: %s', ', '.join('%s %d' % kv for kv in sorted(self.link.stats.items())),
+                 ', '.join('%s %d' % kv for kv in sorted(self.counters.items())))
         self.link.close()
         if self.setpoint_log:
             with open(self.setpoint_log, 'w') as out:

@@ -10,6 +10,7 @@ import os
 import signal
 import sys
 
+from offboard_py.mavlink_link import SigningKeyError
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.params import ParamRejected
@@ -42,6 +43,16 @@ def _instance(text):
     return value
 
 
+def _system_ids(text):
+    try:
+        ids = [int(v) for v in text.split(',') if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError('expected system ids like 1,255, got %r' % text)
+    if not ids or not all(1 <= i <= 255 for i in ids):
+        raise argparse.ArgumentTypeError('system ids are 1..255, got %r' % text)
+    return ids
+
+
 def parser():
     p = argparse.ArgumentParser(prog='sim_px4.py', description=(
         'A simulated PX4 multicopter on MAVLink 2 over UDP, as PX4 SITL: system id N+1, '
@@ -63,6 +74,12 @@ def parser():
     p.add_argument('--setpoint-log', metavar='DIR',
                    help='at exit, write DIR/setpoints-N.txt: arrival time (ns) and time_boot_ms of each '
                         'accepted setpoint (for the benchmark)')
+    p.add_argument('--signing-key', metavar='FILE',
+                   help='MAVLink 2 signing key file in PX4\'s format (32 bytes, optionally + 8-byte timestamp): '
+                        'sign everything sent and drop unsigned or badly signed input, as PX4 with a key does')
+    p.add_argument('--allow-sysid', type=_system_ids, default=(), metavar='ID[,ID...]',
+                   help='take commands, setpoints, parameter and mission writes only from these source '
+                        'system ids (default: from anyone)')
     p.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     return p
 
@@ -80,8 +97,9 @@ def main(argv=None):
                            local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
                            ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate,
                            setpoint_log=os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance)
-                           if args.setpoint_log else None)
-    except ParamRejected as err:
+                           if args.setpoint_log else None,
+                           signing_key_file=args.signing_key, allowed_systems=args.allow_sysid)
+    except (ParamRejected, SigningKeyError) as err:
         logging.error('%s', err)
         return 2
     except OSError as err:

@@ -1,0 +1,100 @@
+"""Link security of the simulated PX4: MAVLink 2 signing with a key file, and the allow-list.
+
+With a key, PX4 signs what it sends and drops unsigned or badly signed input (MAVLink 1
+included: it cannot be signed). The simulator counts what it dropped and says so at exit.
+"""
+
+import re
+import time
+
+from pymavlink.dialects.v10 import common as mavlink1
+from pymavlink.dialects.v20 import development as mavlink2
+
+from conftest import ACCEPTED
+
+FAST = ('--ready-delay', '1')
+KEY = bytes(range(7, 39))
+
+
+def no_ack_for(client, send, seconds=1.5):
+    start = len(client.acks)
+    send()
+    time.sleep(seconds)
+    return len(client.acks) == start
+
+
+def exit_counts(sim):
+    sim.stop()
+    time.sleep(0.3)
+    text = '\n'.join(sim.lines)
+    found = re.search(r'link: (.*); vehicle: (.*)', text)
+    assert found, text[-2000:]
+    items = (found.group(1) + ', ' + found.group(2)).split(', ')
+    return {k: int(v) for k, v in (item.rsplit(' ', 1) for item in items)}
+
+
+def test_signing_required_drops_unsigned_and_badly_signed(start_sim, tmp_path):
+    key_file = tmp_path / 'mavlink-signing-key.bin'
+    key_file.write_bytes(KEY)
+    sim, client = start_sim(22, '--signing-key', str(key_file), *FAST)
+    hb = client.wait_heartbeat()
+    assert hb.get_header().incompat_flags & mavlink2.MAVLINK_IFLAG_SIGNED, 'PX4 with a key signs what it sends'
+    time.sleep(1.2)
+
+    # unsigned MAVLink 2 (arm, parameter write), MAVLink 1, and a frame signed with another key
+    assert no_ack_for(client, lambda: client.send(client.mav.command_long_encode(23, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)))
+    client.send(client.mav.param_set_encode(23, 1, b'MIS_TAKEOFF_ALT', 9.0, 9))
+    v1 = mavlink1.MAVLink(None, srcSystem=255, srcComponent=190)
+    assert no_ack_for(client, lambda: client.conn.write(v1.command_long_encode(23, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
+                                                        .pack(v1)))
+    forger = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
+    forger.signing.secret_key, forger.signing.sign_outgoing = bytes(32 * [9]), True
+    forger.signing.timestamp = 2 ** 46
+    assert no_ack_for(client, lambda: client.conn.write(
+        forger.command_long_encode(23, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0).pack(forger)))
+    assert not client.armed() and 'PARAM_VALUE' not in client.latest, client.describe()
+
+    # the right key: answered, and the forged far-future timestamp locked nobody out
+    client.conn.setup_signing(KEY, sign_outgoing=True)
+    assert client.arm() == ACCEPTED
+    client.wait_armed(True, 2.0)
+    counts = exit_counts(sim)
+    assert counts.get('unsigned_rejected') == 3 and counts.get('bad_signature') == 1, counts
+
+
+def test_setup_signing_provisions_the_key(start_sim):
+    sim, client = start_sim(23, *FAST)
+    time.sleep(1.2)
+    client.send(client.mav.setup_signing_encode(24, 1, list(KEY), 0))
+    client.wait_for(lambda: client.latest['HEARTBEAT'].get_header().incompat_flags & 1, 3.0, 'a signed HEARTBEAT')
+    assert no_ack_for(client, lambda: client.send(client.mav.command_long_encode(24, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)))
+    client.conn.setup_signing(KEY, sign_outgoing=True)
+    assert client.arm() == ACCEPTED
+    # an all-zero key, signed with the current one, turns signing off again
+    client.send(client.mav.setup_signing_encode(24, 1, [0] * 32, 0))
+    client.conn.disable_signing()
+    client.wait_for(lambda: not client.latest['HEARTBEAT'].get_header().incompat_flags & 1, 3.0,
+                    'an unsigned HEARTBEAT')
+    assert client.arm(False) == ACCEPTED
+
+
+def test_allow_list_takes_commands_from_listed_systems_only(start_sim):
+    sim, client = start_sim(24, '--allow-sysid', '1,42', *FAST)
+    time.sleep(1.2)
+    assert no_ack_for(client, lambda: client.send(client.mav.command_long_encode(25, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)))
+    for _ in range(10):
+        client.send(client.setpoint(0, 0, -2))
+        time.sleep(0.02)
+    assert not client.armed()
+    # reading is open to anyone
+    client.send(client.mav.param_request_read_encode(25, 1, b'COM_OF_LOSS_T', -1))
+    client.wait_for(lambda: client.latest.get('PARAM_VALUE'), 3.0, 'PARAM_VALUE')
+    # system 42 is listed (its ACK comes back to the same socket)
+    gcs = mavlink2.MAVLink(None, srcSystem=42, srcComponent=190)
+    start = len(client.acks)
+    client.conn.write(gcs.command_long_encode(25, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0).pack(gcs))
+    client.wait_for(lambda: any(a.command == 400 and a.result == ACCEPTED for _, a in client.acks[start:]), 3.0,
+                    'arming accepted from system 42')
+    client.wait_armed(True, 2.0)
+    assert exit_counts(sim)['not_allowed'] == 1 + 10  # the arm command and ten setpoints
+    assert any('ignored COMMAND_LONG from system 255' in line for line in sim.lines), sim.lines[-10:]
