@@ -144,7 +144,6 @@ class MavlinkLink:
         self.stats = collections.Counter()
         self.last_receive_s = None
         self.signing_required = False
-        self.warn = log.warning  # where signing rejections are reported (the bridge uses rospy)
         self._streams = {}  # (link_id, sysid, compid) -> last accepted signing timestamp
         self._signature_failed = False
 
@@ -230,7 +229,7 @@ class MavlinkLink:
         """Log the first rejections and then every 100th: an attack must not flood the log."""
         total = self.stats['unsigned_rejected'] + self.stats['bad_signature']
         if total <= 3 or total % 100 == 0:
-            self.warn('signing: rejected %s %s (%d unsigned, %d badly signed so far)',
+            log.warning('signing: rejected %s %s (%d unsigned, %d badly signed so far)',
                         'a badly signed' if bad_signature else 'an unsigned', name,
                         self.stats['unsigned_rejected'], self.stats['bad_signature'])
 

@@ -5,6 +5,8 @@ Side A faces the FCU (the simulator sends to --fcu-port), side B faces the bridg
 (its fcu_url sends to --bridge-port). Each side learns its peer from the
 first datagram. Every datagram may be dropped, duplicated, delayed or reordered, and the
 link can be cut for a while (--cut START:SECONDS, repeatable, seconds after start).
+With --control-port, a test cuts it when it wants: a datagram "cut SECONDS [both|to_fcu|to_bridge]"
+to that port cuts one or both directions from now on, and is answered "ok" (or "error: ...").
 Runs as a roslaunch node too (name:=value arguments are ignored). Loopback only.
 """
 
@@ -26,6 +28,7 @@ def parse_args(argv):
     p.add_argument('--delay-ms', type=float, default=0.0, help='delay added to every datagram')
     p.add_argument('--jitter-ms', type=float, default=0.0, help='uniform random extra delay (reorders)')
     p.add_argument('--cut', action='append', default=[], metavar='START:SECONDS', help='cut the link')
+    p.add_argument('--control-port', type=int, help='UDP port for "cut SECONDS [direction]" commands')
     p.add_argument('--seed', type=int, default=1)
     args = p.parse_args([a for a in argv if ':=' not in a])
     for name in ('drop', 'duplicate'):
@@ -38,6 +41,23 @@ def parse_args(argv):
     return args
 
 
+DIRECTIONS = {'both': ('fcu', 'bridge'), 'to_bridge': ('fcu',), 'to_fcu': ('bridge',)}  # by receiving side
+
+
+def parse_control(text):
+    """'cut SECONDS [direction]' -> (seconds, receiving sides). Raises ValueError with the reason."""
+    words = text.split()
+    if len(words) not in (2, 3) or words[0] != 'cut':
+        raise ValueError('expected "cut SECONDS [both|to_fcu|to_bridge]", got %r' % text)
+    seconds = float(words[1])
+    if not 0.0 <= seconds <= 3600.0:
+        raise ValueError('cut length %g s is outside 0..3600' % seconds)
+    direction = words[2] if len(words) == 3 else 'both'
+    if direction not in DIRECTIONS:
+        raise ValueError('unknown direction %r' % direction)
+    return seconds, DIRECTIONS[direction]
+
+
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     rng = random.Random(args.seed)
@@ -47,6 +67,11 @@ def main(argv=None):
         sock.bind(('127.0.0.1', port))
         sock.setblocking(False)
         sides[name] = sock
+    control = None
+    if args.control_port:
+        control = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        control.bind(('127.0.0.1', args.control_port))
+    cut_until = {'fcu': 0.0, 'bridge': 0.0}  # by receiving side: drop what arrives there until then
     peers = {'fcu': None, 'bridge': None}
     other = {'fcu': 'bridge', 'bridge': 'fcu'}
     queue = []  # (due, seq, side to send from, data)
@@ -56,8 +81,19 @@ def main(argv=None):
     try:
         while True:
             timeout = max(0.0, queue[0][0] - time.monotonic()) if queue else 0.5
-            readable, _, _ = select.select(list(sides.values()), [], [], timeout)
+            readable, _, _ = select.select(list(sides.values()) + ([control] if control else []), [], [], timeout)
             now = time.monotonic()
+            if control in readable:
+                text, addr = control.recvfrom(1000)
+                try:
+                    seconds, receiving = parse_control(text.decode('ascii', 'replace'))
+                except ValueError as err:
+                    control.sendto(b'error: %s' % str(err).encode(), addr)
+                else:
+                    for side in receiving:
+                        cut_until[side] = now + seconds
+                    print('lossy_relay: cut %s for %.1f s' % ('+'.join(receiving), seconds), flush=True)
+                    control.sendto(b'ok', addr)
             for name, sock in sides.items():
                 if sock not in readable:
                     continue
@@ -68,7 +104,7 @@ def main(argv=None):
                         break
                     peers[name] = addr
                     elapsed = now - start
-                    if any(s <= elapsed < s + d for s, d in args.cuts):
+                    if now < cut_until[name] or any(s <= elapsed < s + d for s, d in args.cuts):
                         stats['cut'] += 1
                         continue
                     if rng.random() < args.drop:

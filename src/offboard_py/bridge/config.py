@@ -1,0 +1,57 @@
+"""The bridge's node parameters, read and checked without ROS (get(name, default) is rospy.get_param)."""
+
+import math
+
+from offboard_py.mavlink_link import SigningKeyError, UrlError, parse_udp_url, read_signing_key
+
+DEFAULT_FCU_URL = 'udp://:14540@localhost:14557'  # PX4 SITL, as in mavros's px4.launch
+
+
+class ConfigError(ValueError):
+    """A node parameter the bridge cannot run with; the message names it."""
+
+
+def _number(name, value, low, high):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError('parameter ~%s: expected a number, got %r' % (name, value))
+    if not low <= value <= high:
+        raise ConfigError('parameter ~%s: %g is outside [%g, %g]' % (name, value, low, high))
+    return value
+
+
+def read_config(get):
+    """All node parameters through get(name, default), checked. Raises ConfigError."""
+    cfg = {}
+    for name, default in (('fcu_url', DEFAULT_FCU_URL), ('gcs_url', ''), ('local_position/frame_id', 'map'),
+                          ('global_position/frame_id', 'map'), ('signing/key_file', '')):
+        value = get(name, default)
+        if not isinstance(value, str):
+            raise ConfigError('parameter ~%s: expected a string, got %r' % (name, value))
+        cfg[name] = value
+    for name, default, low, high in (('target_system_id', 1, 1, 255), ('target_component_id', 1, 0, 255),
+                                     ('system_id', 1, 1, 255), ('component_id', 240, 1, 255)):
+        value = get(name, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError('parameter ~%s: expected a whole number, got %r' % (name, value))
+        cfg[name] = int(_number(name, value, low, high))
+    for name, default, low, high in (('conn/timeout', 10.0, 0.1, 3600.0), ('conn/heartbeat_rate', 1.0, 0.0, 100.0),
+                                     ('cmd/command_ack_timeout', 5.0, 0.1, 600.0)):
+        cfg[name] = float(_number(name, get(name, default), low, high))
+    for key, name, ports in (('fcu', 'fcu_url', ()), ('gcs', 'gcs_url', (14550, 14551))):
+        try:
+            cfg[key] = parse_udp_url(cfg[name], *ports) if cfg[name] else None
+        except UrlError as err:
+            raise ConfigError('parameter ~%s: %s' % (name, err))
+    if cfg['fcu'] is None:
+        raise ConfigError('parameter ~fcu_url: empty')
+    required = get('signing/required', True)
+    if not isinstance(required, bool):
+        raise ConfigError('parameter ~signing/required: expected true or false, got %r' % (required,))
+    cfg['signing/required'] = required
+    cfg['signing'] = None
+    if cfg['signing/key_file']:
+        try:
+            cfg['signing'] = read_signing_key(cfg['signing/key_file'])
+        except SigningKeyError as err:
+            raise ConfigError('parameter ~signing/key_file: %s' % err)
+    return cfg
