@@ -1,0 +1,75 @@
+#!/usr/bin/env python3
+"""The bridge and the simulated PX4 killed (SIGKILL) in hover; the node keeps running.
+
+- Bridge killed and respawned: the gap is longer than COM_OF_LOSS_T, so the vehicle fails
+  safe; the node, still the same process, asks for OFFBOARD again and it returns to 2 m.
+- Vehicle killed and restarted: the bridge reports disconnected, then connected; the new
+  vehicle is on the ground, disarmed; the node arms it again and it climbs to 2 m.
+"""
+
+import os
+import signal
+import subprocess
+import time
+import xmlrpc.client
+
+import rosgraph
+import rospy
+import rostest
+
+from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+
+PKG = 'offboard_py'
+
+
+def node_pid(name):
+    uri = rosgraph.Master('/test_restarts').lookupNode(name)
+    code, _, pid = xmlrpc.client.ServerProxy(uri).getPid('/test_restarts')
+    assert code == 1, 'getPid on %s failed' % name
+    return pid
+
+
+class RestartsTest(OffboardTestCase):
+
+    def back_at_2m(self, vehicle, what, timeout_s=60.0):
+        self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed, timeout_s,
+                        'OFFBOARD and armed again after %s' % what, [vehicle])
+        self.wait_for_altitude(vehicle, 2.0, 0.2, 30.0)
+
+    def test_bridge_then_vehicle_restart(self):
+        vehicle = Vehicle('mavros')
+        node_log = RosoutRecorder('/offb_node_py')
+        self.wait_for_connected(vehicle, 30.0)
+        self.back_at_2m(vehicle, 'start-up')
+        node_before = node_pid('/offb_node_py')
+
+        # the bridge dies
+        bridge_before = node_pid('/mavros')
+        os.kill(bridge_before, signal.SIGKILL)
+        killed = time.monotonic()
+        self.wait_until(lambda: vehicle.state.mode not in ('OFFBOARD', ''), 30.0,
+                        'the failsafe after the bridge was killed', [vehicle])
+        rospy.loginfo('bridge killed: vehicle in %s after %.1f s', vehicle.state.mode, time.monotonic() - killed)
+        self.back_at_2m(vehicle, 'the bridge respawned')
+        self.assertNotEqual(node_pid('/mavros'), bridge_before, 'the bridge was not respawned')
+        self.assertEqual(node_pid('/offb_node_py'), node_before, 'the node must not be restarted')
+        self.assert_holds(vehicle, 2.0, 0.2, 2.0)
+
+        # the vehicle dies
+        pattern = rospy.get_param('~sim_pattern')
+        pids = [int(p) for p in subprocess.run(['pgrep', '-f', pattern], capture_output=True, text=True).stdout.split()]
+        self.assertEqual(len(pids), 1, 'expected one process matching %r, found %s' % (pattern, pids))
+        arms_before = node_log.count('Vehicle armed')
+        os.kill(pids[0], signal.SIGKILL)
+        self.wait_until(lambda: not vehicle.state.connected, 3.0 + 2.0, 'disconnected after conn/timeout', [vehicle])
+        self.wait_until(lambda: vehicle.state.connected, 30.0, 'connected to the restarted vehicle', [vehicle])
+        self.assertFalse(vehicle.state.armed, 'a restarted vehicle is disarmed')
+        self.back_at_2m(vehicle, 'the vehicle restarted')
+        self.assertGreater(node_log.count('Vehicle armed'), arms_before, 'the node did not re-arm')
+        self.assertEqual(node_pid('/offb_node_py'), node_before, 'the node must not be restarted')
+        self.assertIn('FCU connection back', node_log.lines)
+
+
+if __name__ == '__main__':
+    rospy.init_node('test_restarts')
+    rostest.rosrun(PKG, 'restarts', RestartsTest)
