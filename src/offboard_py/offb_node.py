@@ -8,6 +8,7 @@ the stream, as the tutorial's tip asks. All names are relative, so a namespace
 (`<group ns="uav1">` or ROS_NAMESPACE) moves the node together with its vehicle.
 """
 
+import sys
 import threading
 
 import rospy
@@ -16,6 +17,7 @@ from mavros_msgs.msg import State
 from mavros_msgs.srv import CommandBool, SetMode
 
 from offboard_py import frames
+from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
 from offboard_py.offboard import OFFBOARD, OffboardLogic, ParamError, Request, VehicleState, validate_config
 
 NODE_NAME = 'offb_node_py'
@@ -101,6 +103,13 @@ class OffbNode:
 def main():
     """Run the node; return the process exit code (2 for a bad parameter)."""
     try:
+        wait_for_master(NODE_NAME, master_timeout_from_argv(sys.argv))
+    except (ValueError, MasterTimeout) as err:
+        print(err, file=sys.stderr)
+        return 2 if isinstance(err, ValueError) else 1
+    except KeyboardInterrupt:
+        return 0
+    try:
         rospy.init_node(NODE_NAME)
         try:
             config = validate_config(lambda name, default: rospy.get_param('~' + name, default))
@@ -110,4 +119,7 @@ def main():
         OffbNode(config).spin()
     except (rospy.ROSInterruptException, KeyboardInterrupt):
         pass
+    except rospy.ROSInitException as err:  # e.g. interrupted while rospy waited for the master
+        print('%s: %s' % (NODE_NAME, err), file=sys.stderr)
+        return 1
     return 0

@@ -10,12 +10,14 @@ setpoints or telemetry.
 
 import logging
 import select
+import sys
 import threading
 import time
 
 import rospy
 
 from offboard_py.bridge.config import ConfigError, read_config
+from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
 from offboard_py.mavlink_link import MavlinkLink, UrlError
 from offboard_py.bridge import (altitude, command, global_position, home_position, imu, local_position,
                                 mission, param, setpoint, sys_status)
@@ -129,6 +131,13 @@ class _ToRosout(logging.Handler):
 
 
 def main():
+    try:
+        wait_for_master('mavros', master_timeout_from_argv(sys.argv))
+    except (ValueError, MasterTimeout) as err:
+        print(err, file=sys.stderr)
+        return 2 if isinstance(err, ValueError) else 1
+    except KeyboardInterrupt:
+        return 0
     rospy.init_node('mavros')
     handler = _ToRosout()
     handler.setFormatter(logging.Formatter('%(message)s'))
