@@ -1,6 +1,6 @@
 """Hostile input to the simulated PX4: no crash, no hang, no state change from what PX4 rejects.
 
-10 000 datagrams (set OFFBOARD_PY_FUZZ_FRAMES for a longer run): random bytes, valid frames
+10 000 datagrams (`./run fuzz` sends 100 000): random bytes, valid frames
 with flipped bits (bad CRC), truncated frames, unknown message ids, valid frames for another
 system (MAVLink 1 and 2), out-of-range enums and NaN fields for this system.
 """
@@ -9,17 +9,20 @@ import math
 import os
 import random
 import socket
-import struct
+import sys
 import time
 
 from pymavlink.dialects.v10 import common as mavlink1
 from pymavlink.dialects.v20 import development as mavlink2
 
-from conftest import ACCEPTED
+from conftest import ACCEPTED, REPO
+
+sys.path.insert(0, os.path.join(REPO, 'test', 'tools'))
+import mavlink_fuzz  # noqa: E402
 
 INSTANCE = 30
 TARGET = INSTANCE + 1
-FRAMES = int(os.environ.get('OFFBOARD_PY_FUZZ_FRAMES', '10000'))
+FRAMES = mavlink_fuzz.frame_count()
 
 
 def hostile_frames(rng, count):
@@ -59,34 +62,10 @@ def hostile_frames(rng, count):
         v2.mission_request_int_encode(TARGET, 1, 9999, 0),
         v2.mission_count_encode(TARGET, 1, 60000, 0),                          # too many items
     ]
-    corruptible = [m.pack(v2) for m in valid_for_us]
-    for_others = [m.pack(v2) for m in other_system[:4]] + [m.pack(v1) for m in other_system[4:]]
-    refused = [m.pack(v2) for m in rejected_by_px4]
-    kinds = ('random', 'bitflip', 'truncated', 'unknown_id', 'other_system', 'rejected', 'mixed')
-    for i in range(count):
-        kind = kinds[i % len(kinds)]
-        if kind == 'random':
-            yield bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 280)))
-        elif kind == 'bitflip':
-            frame = bytearray(rng.choice(corruptible))
-            for bit in rng.sample(range(8, len(frame) * 8), rng.randint(1, 3)):  # distinct bits: never a no-op
-                frame[bit // 8] ^= 1 << (bit % 8)
-            yield bytes(frame)
-        elif kind == 'truncated':
-            frame = rng.choice(corruptible)
-            yield frame[:rng.randint(1, len(frame) - 1)]
-        elif kind == 'unknown_id':
-            payload = bytes(rng.getrandbits(8) for _ in range(rng.randint(0, 40)))
-            msgid = rng.randint(20000, 0xFFFFFF)
-            header = struct.pack('<BBBBBBB', 0xFD, len(payload), 0, 0, i & 0xFF, 200, 1) + msgid.to_bytes(3, 'little')
-            yield header + payload + bytes(rng.getrandbits(8) for _ in range(2))
-        elif kind == 'other_system':
-            yield rng.choice(for_others)
-        elif kind == 'rejected':
-            yield rng.choice(refused)
-        else:  # several frames in one datagram, v1 and v2 mixed with garbage between
-            yield b''.join(rng.choice(for_others + refused) + bytes(rng.getrandbits(8) for _ in range(rng.randint(0, 5)))
-                           for _ in range(rng.randint(2, 5)))
+    return mavlink_fuzz.hostile_datagrams(
+        rng, count, corruptible=[m.pack(v2) for m in valid_for_us],
+        ignorable=[m.pack(v2) for m in other_system[:4]] + [m.pack(v1) for m in other_system[4:]],
+        refused=[m.pack(v2) for m in rejected_by_px4])
 
 
 def read_param(client, name):
@@ -102,14 +81,8 @@ def test_fuzz_changes_nothing(start_sim):
     before = {name: read_param(client, name) for name in ('MIS_TAKEOFF_ALT', 'COM_OF_LOSS_T', 'COM_OBL_RC_ACT')}
     raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rng = random.Random(2026)
-    sent = 0
     started = time.monotonic()
-    for data in hostile_frames(rng, FRAMES):
-        raw.sendto(data, ('127.0.0.1', 14580 + INSTANCE))
-        sent += 1
-        if sent % 40 == 0:
-            time.sleep(0.004)  # paced so the kernel delivers them all to the parser
-    assert sent == FRAMES
+    assert mavlink_fuzz.send_paced(raw, ('127.0.0.1', 14580 + INSTANCE), hostile_frames(rng, FRAMES)) == FRAMES
     assert sim.proc.poll() is None, 'the simulator died:\n' + '\n'.join(sim.lines[-20:])
     assert not any('Traceback' in line for line in sim.lines), '\n'.join(sim.lines[-20:])
     # take the link back (valid frames from the fuzzer moved the simulator's remote, as on PX4)

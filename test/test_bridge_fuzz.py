@@ -1,0 +1,87 @@
+#!/usr/bin/env python3
+"""Hostile MAVLink at the bridge's FCU port: no crash, no hang, no handler error, and no
+state or pose published from frames mavros would drop (bad CRC, cut short, unknown ids,
+another system, another component's HEARTBEAT, MAVLink 1 and 2 mixed). Afterwards it still commands the vehicle.
+"""
+
+import os
+import random
+import socket
+import sys
+import time
+
+import rospy
+import rostest
+from geometry_msgs.msg import PoseStamped
+from pymavlink.dialects.v10 import common as mavlink1
+from pymavlink.dialects.v20 import development as mavlink2
+
+from offboard_py import px4_modes
+from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), 'tools'))
+import mavlink_fuzz  # noqa: E402
+
+PKG = 'offboard_py'
+ARMED_OFFBOARD = (px4_modes.SAFETY_ARMED | px4_modes.CUSTOM_MODE_ENABLED, px4_modes.encode('OFFBOARD'))
+
+
+def hostile_datagrams(rng, count, target):
+    nan = float('nan')
+    vehicle = mavlink2.MAVLink(None, srcSystem=target, srcComponent=1)
+    camera = mavlink2.MAVLink(None, srcSystem=target, srcComponent=100)
+    other = mavlink2.MAVLink(None, srcSystem=42, srcComponent=1)
+    other_v1 = mavlink1.MAVLink(None, srcSystem=43, srcComponent=1)
+    lies = [  # what the vehicle never said: armed in OFFBOARD, 50 m up, an ACK nobody asked for
+        lambda m: m.heartbeat_encode(2, 12, ARMED_OFFBOARD[0], ARMED_OFFBOARD[1], 4),
+        lambda m: m.local_position_ned_encode(1000, 0, 0, -50, 0, 0, 0),
+        lambda m: m.command_ack_encode(400, 0, 0, 0, 1, 240),
+        lambda m: m.extended_sys_state_encode(0, 2),
+    ]
+    return mavlink_fuzz.hostile_datagrams(
+        rng, count,
+        corruptible=[lie(vehicle).pack(vehicle) for lie in lies],
+        # mavros takes data from any component of its target system, but the state only
+        # from the autopilot's HEARTBEAT: the camera's heartbeat must not move the state
+        ignorable=[lie(other).pack(other) for lie in lies]
+        + [m.heartbeat_encode(2, 12, ARMED_OFFBOARD[0], ARMED_OFFBOARD[1], 4).pack(m) for m in (camera, other_v1)],
+        refused=[other.local_position_ned_encode(1000, nan, nan, nan, nan, nan, nan).pack(other),
+                 camera.heartbeat_encode(255, 255, 255, 0xFFFFFFFF, 255).pack(camera)])
+
+
+class BridgeFuzzTest(OffboardTestCase):
+
+    def test_fuzz_changes_nothing(self):
+        vehicle = Vehicle('mavros')
+        bridge_log = RosoutRecorder('/mavros')
+        poses = []
+        rospy.Subscriber('mavros/local_position/pose', PoseStamped, lambda m: poses.append(m.pose.position.z))
+        self.wait_for_connected(vehicle, 30.0)
+        self.wait_until(lambda: vehicle.pose is not None, 10.0, 'a pose', [vehicle])
+        frames = mavlink_fuzz.frame_count()
+        start = time.monotonic()
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sent = mavlink_fuzz.send_paced(sock, ('127.0.0.1', rospy.get_param('~bridge_port')),
+                                       hostile_datagrams(random.Random(2026), frames, rospy.get_param('~target_system')))
+        took = time.monotonic() - start
+        rospy.loginfo('fuzz: %d datagrams in %.1f s', sent, took)
+        time.sleep(1.5)
+        with vehicle.lock:
+            during = [s for t, s in vehicle.states if t >= start]
+        self.assertEqual(sent, frames)
+        self.assertTrue(during, 'no state published during %.0f s of fuzz: the bridge hangs' % took)
+        self.assertTrue(all(s.connected and not s.armed and s.mode == 'AUTO.LOITER' for s in during),
+                        'states from hostile frames: %s' % sorted({(s.mode, s.armed, s.connected) for s in during}))
+        self.assertTrue(poses and max(abs(z) for z in poses) < 0.5,
+                        'a pose from a hostile frame: max |z| %.1f m' % max(abs(z) for z in poses))
+        failed = [line for line in bridge_log.lines if 'failed' in line or 'Traceback' in line]
+        self.assertEqual(failed, [], 'the bridge reported errors: %s' % failed[:3])
+        # still the vehicle's bridge: the link went back to the vehicle, commands get answered
+        self.assertTrue(self.set_arm(vehicle, True).success, 'arming through the bridge after the fuzz')
+        self.wait_for_armed(vehicle, True, 5.0)
+        self.assertTrue(self.set_arm(vehicle, False).success)
+
+
+if __name__ == '__main__':
+    rospy.init_node('test_bridge_fuzz')
+    rostest.rosrun(PKG, 'bridge_fuzz', BridgeFuzzTest)
