@@ -9,12 +9,12 @@ import time
 import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped, Quaternion
-from mavros_msgs.msg import HomePosition, Waypoint, WaypointList
+from mavros_msgs.msg import HomePosition, PositionTarget, Waypoint, WaypointList
 from mavros_msgs.srv import ParamGet, ParamPull, ParamSet, ParamSetRequest, WaypointClear, WaypointPush
 from pymavlink.dialects.v20 import development as mavlink
 from sensor_msgs.msg import Imu, NavSatFix
 
-from offboard_test_common import OffboardTestCase, Vehicle, yaw_of
+from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle, yaw_of
 
 PKG = 'offboard_py'
 START = time.monotonic()
@@ -150,6 +150,31 @@ class BridgeTest(OffboardTestCase):
         self.assertEqual((m.coordinate_frame, m.type_mask), (1, 2552))
         self.assertEqual((round(m.x, 6), round(m.y, 6), round(m.z, 6)), (2.0, 1.0, -3.0))
         self.assertAlmostEqual(m.yaw, math.pi / 2, places=5)
+
+    def test_05b_raw_setpoint_nan_only_matters_where_used(self):
+        self.wait_for_connected(self.silent, 10.0)
+        log = RosoutRecorder('/silent/mavros')
+        pub = rospy.Publisher('silent/mavros/setpoint_raw/local', PositionTarget, queue_size=10)
+        self.wait_until(lambda: pub.get_num_connections() > 0 and log.sub.get_num_connections() > 0, 5.0,
+                        'the bridge subscribing, and /rosout connected')
+        velocity_only = 1 | 2 | 4 | 64 | 128 | 256 | 1024 | 2048
+        before = len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED'))
+        bad = PositionTarget(coordinate_frame=1, type_mask=velocity_only)
+        bad.velocity.z = float('nan')
+        pub.publish(bad)
+        good = PositionTarget(coordinate_frame=1, type_mask=velocity_only)
+        good.position.x = good.position.z = good.yaw = float('nan')  # ignored by the mask
+        good.velocity.x = 1.0
+        pub.publish(good)
+        self.wait_until(lambda: len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')) > before, 5.0,
+                        'a SET_POSITION_TARGET_LOCAL_NED at the FCU')
+        time.sleep(0.3)
+        got = self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')[before:]
+        self.assertEqual(len(got), 1, 'the setpoint with a NaN velocity must not be sent')
+        m = got[0]
+        self.assertEqual((m.type_mask, m.vx, m.vy, m.x, m.z, m.yaw), (velocity_only, 0.0, 1.0, 0.0, 0.0, 0.0))
+        self.wait_until(lambda: any('NaN or infinite velocity.z not sent' in line for line in log.lines), 5.0,
+                        'the refusal logged, naming the field')
 
     def test_06_local_pose_is_enu(self):
         self.wait_for_connected(self.silent, 10.0)

@@ -6,16 +6,19 @@
 - ~setpoint_raw/local (PositionTarget): LOCAL_NED (and LOCAL_OFFSET_NED) vectors ENU->NED,
   BODY_NED (and BODY_OFFSET_NED) vectors FLU->FRD; yaw_ned = pi/2 - yaw, yaw_rate negated;
   type_mask passed through.
-A setpoint with a NaN or infinite number is not sent, and is logged (throttled).
+A setpoint with a NaN or infinite number in a field it uses is not sent, and is logged
+(at most a line per topic every 5 s); in a field its type_mask ignores, it is sent as 0.
 """
 
 import math
+import time
 
 import rospy
 from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import PositionTarget
 
 from offboard_py import frames
+from offboard_py.bridge import typemask
 
 TYPE_MASK_POSITION_YAW = 0x9F8
 FRAME_LOCAL_NED = 1
@@ -30,10 +33,16 @@ def _finite(*values):
     return all(math.isfinite(v) for v in values)
 
 
+def _zero_unfinite(vector):
+    """The vector with NaN/inf components (in fields the type_mask ignores) as 0."""
+    return type(vector)(*(c if math.isfinite(c) else 0.0 for c in (vector.x, vector.y, vector.z)))
+
+
 class Setpoint:
     def __init__(self, bridge):
         self.bridge = bridge
         self.rejected = 0
+        self._last_log_s = {}
         self.subs = [
             rospy.Subscriber('~setpoint_position/local', PoseStamped, self._on_pose, queue_size=10,
                              tcp_nodelay=True),
@@ -41,9 +50,12 @@ class Setpoint:
         ]
 
     def _reject(self, topic, what):
+        """Count and log; at most one line per topic every 5 s (rospy's throttle would merge topics)."""
         self.rejected += 1
-        rospy.logwarn_throttle(5.0, 'SP: %s: setpoint with %s not sent (%d rejected so far)'
-                               % (topic, what, self.rejected))
+        now = time.monotonic()
+        if now - self._last_log_s.get(topic, -math.inf) >= 5.0:
+            self._last_log_s[topic] = now
+            rospy.logwarn('SP: %s: setpoint with %s not sent (%d rejected so far)', topic, what, self.rejected)
 
     def _on_pose(self, msg):
         p, q = msg.pose.position, msg.pose.orientation
@@ -59,13 +71,17 @@ class Setpoint:
 
     def _on_raw(self, msg):
         p, v, a = msg.position, msg.velocity, msg.acceleration_or_force
-        if not _finite(p.x, p.y, p.z, v.x, v.y, v.z, a.x, a.y, a.z, msg.yaw, msg.yaw_rate):
-            self._reject('setpoint_raw/local', 'a NaN or infinite value')
+        bad = typemask.bad_used_fields(msg.type_mask, typemask.position_target_values(msg))
+        if bad:
+            self._reject('setpoint_raw/local', 'a NaN or infinite %s' % ', '.join(bad))
             return
+        # PX4 ignores what the mask ignores; send zeros there rather than NaN
+        p, v, a = (_zero_unfinite(c) for c in (p, v, a))
         convert = frames.flu_to_frd if msg.coordinate_frame in BODY_FRAMES else frames.enu_to_ned
         position, velocity, accel = (convert(c.x, c.y, c.z) for c in (p, v, a))
-        yaw = frames.yaw_enu_to_ned(msg.yaw)
+        yaw = frames.yaw_enu_to_ned(msg.yaw) if math.isfinite(msg.yaw) else 0.0
+        yaw_rate = -msg.yaw_rate if math.isfinite(msg.yaw_rate) else 0.0
         b = self.bridge
         b.send(b.mav.set_position_target_local_ned_encode(
             _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, msg.coordinate_frame,
-            msg.type_mask, *position, *velocity, *accel, yaw, -msg.yaw_rate))
+            msg.type_mask, *position, *velocity, *accel, yaw, yaw_rate))
