@@ -209,7 +209,8 @@ class MavlinkLink:
             self._signature_failed = True
             return False
         self._streams[stream] = timestamp
-        s.timestamp = max(s.timestamp, timestamp)
+        with self._send_lock:  # senders bump the same counter
+            s.timestamp = max(s.timestamp, timestamp)
         return True
 
     def _accept_unsigned(self, _mav, msg_id):
