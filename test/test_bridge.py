@@ -128,6 +128,13 @@ class BridgeTest(OffboardTestCase):
         cmds = [m for m in self.fcu.of_type('COMMAND_LONG') if m.command == 400]
         self.assertTrue(cmds and cmds[0].param1 == 1.0 and cmds[0].confirmation == 1)
 
+    def setpoints_at_fcu_after(self, before):
+        """The SET_POSITION_TARGET_LOCAL_NED the FCU got after the first `before`, once one came."""
+        self.wait_until(lambda: len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')) > before, 5.0,
+                        'a SET_POSITION_TARGET_LOCAL_NED at the FCU')
+        time.sleep(0.3)  # anything sent after it would have arrived by now
+        return self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')[before:]
+
     def test_05_setpoint_enu_arrives_as_ned(self):
         self.wait_for_connected(self.silent, 10.0)
         pub = rospy.Publisher('silent/mavros/setpoint_position/local', PoseStamped, queue_size=10)
@@ -141,10 +148,7 @@ class BridgeTest(OffboardTestCase):
         sp.pose.position.x, sp.pose.position.y, sp.pose.position.z = 1.0, 2.0, 3.0
         sp.pose.orientation = Quaternion(0.0, 0.0, 0.0, 1.0)  # yaw 0 ENU: facing east
         pub.publish(sp)
-        self.wait_until(lambda: len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')) > before, 5.0,
-                        'a SET_POSITION_TARGET_LOCAL_NED at the FCU')
-        time.sleep(0.3)
-        got = self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')[before:]
+        got = self.setpoints_at_fcu_after(before)
         self.assertEqual(len(got), 1, 'the NaN setpoint must not be sent')
         m = got[0]
         self.assertEqual((m.coordinate_frame, m.type_mask), (1, 2552))
@@ -166,10 +170,7 @@ class BridgeTest(OffboardTestCase):
         good.position.x = good.position.z = good.yaw = float('nan')  # ignored by the mask
         good.velocity.x = 1.0
         pub.publish(good)
-        self.wait_until(lambda: len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')) > before, 5.0,
-                        'a SET_POSITION_TARGET_LOCAL_NED at the FCU')
-        time.sleep(0.3)
-        got = self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED')[before:]
+        got = self.setpoints_at_fcu_after(before)
         self.assertEqual(len(got), 1, 'the setpoint with a NaN velocity must not be sent')
         m = got[0]
         self.assertEqual((m.type_mask, m.vx, m.vy, m.x, m.z, m.yaw), (velocity_only, 0.0, 1.0, 0.0, 0.0, 0.0))
