@@ -6,12 +6,7 @@
   answers PX4 wherever PX4 sends from), parses every datagram, and hands each message
   to the handlers registered for its type: a plugin is a set of handlers, not a branch
   in one long if/elif chain. Malformed bytes are counted and dropped, never raised.
-
-- `enable_signing()` turns on MAVLink 2 message signing: every frame we send is signed,
-  and when signing is required a received frame without a valid signature is dropped and
-  counted (`stats['unsigned_rejected']`, `stats['bad_signature']`), except the few
-  messages PX4 always takes unsigned. The key file is PX4's: 32 key bytes, optionally
-  followed by the 64-bit little-endian timestamp.
+- `enable_signing()` turns on MAVLink 2 signing (offboard_py.signing does the work).
 
 It knows nothing of ROS or of the simulator; the caller owns the receive loop
 (`fileno()` for select, `receive()` to drain the socket).
@@ -19,17 +14,14 @@ It knows nothing of ROS or of the simulator; the caller owns the receive loop
 
 import collections
 import errno
-import hashlib
-import hmac
 import logging
-import os
-import struct
 import socket
 import threading
 import time
 from urllib.parse import urlsplit
 
-from pymavlink.dialects.v20 import development as mavlink
+from offboard_py.dialect import mavlink
+from offboard_py.signing import LinkSigning
 
 # What the mavros URL leaves out: mavros binds 14555 and sends to 14550 by default.
 DEFAULT_BIND_PORT = 14555
@@ -38,48 +30,7 @@ DEFAULT_REMOTE_PORT = 14550
 DEFAULT_BIND_HOST = '127.0.0.1'
 MAX_DATAGRAM = 65535
 
-# MAVLink signing: timestamps count 10 us units since 2015-01-01 00:00:00 UTC.
-SIGNING_EPOCH_UNIX_S = 1420070400
-SIGNING_KEY_LENGTH = 32
-# A new stream is accepted only if its timestamp is at most one minute behind ours.
-SIGNING_NEW_STREAM_WINDOW = 60 * 100000
-# What PX4 accepts unsigned even when signing is required (mavlink_sign_control.cpp).
-ALWAYS_ACCEPTED_UNSIGNED = frozenset((mavlink.MAVLINK_MSG_ID_RADIO_STATUS, mavlink.MAVLINK_MSG_ID_ADSB_VEHICLE,
-                                      mavlink.MAVLINK_MSG_ID_COLLISION))
-
 log = logging.getLogger(__name__)
-
-
-class SigningKeyError(ValueError):
-    """A signing key file that cannot be used; the message names the file."""
-
-
-def signing_timestamp_now():
-    return max(0, int((time.time() - SIGNING_EPOCH_UNIX_S) * 100000))
-
-
-def read_signing_key(path):
-    """PX4's key file (32 key bytes, then an optional uint64 LE timestamp) -> (key, timestamp)."""
-    try:
-        with open(path, 'rb') as f:
-            data = f.read(SIGNING_KEY_LENGTH + 9)
-    except OSError as err:
-        raise SigningKeyError('signing key file %s: %s' % (path, err.strerror or err))
-    if len(data) not in (SIGNING_KEY_LENGTH, SIGNING_KEY_LENGTH + 8):
-        raise SigningKeyError('signing key file %s: %d bytes; expected a 32-byte key, optionally followed by an '
-                              '8-byte timestamp (as PX4 stores it)' % (path, len(data)))
-    key = data[:SIGNING_KEY_LENGTH]
-    timestamp = struct.unpack('<Q', data[SIGNING_KEY_LENGTH:])[0] if len(data) > SIGNING_KEY_LENGTH else 0
-    if not any(key):
-        raise SigningKeyError('signing key file %s: the key is all zeros, which means "no key" in MAVLink' % path)
-    return key, timestamp
-
-
-def write_signing_key(path, key, timestamp=0):
-    """Write a key file in PX4's format, readable by its owner only."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, 'wb') as f:
-        f.write(bytes(key) + struct.pack('<Q', timestamp))
 
 
 class UrlError(ValueError):
@@ -143,9 +94,7 @@ class MavlinkLink:
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
         self.stats = collections.Counter()
         self.last_receive_s = None
-        self.signing_required = False
-        self._streams = {}  # (link_id, sysid, compid) -> last accepted signing timestamp
-        self._signature_failed = False
+        self.signing = LinkSigning(self.mav, self._send_lock, self.stats)
 
     @staticmethod
     def _resolve(address):
@@ -168,71 +117,12 @@ class MavlinkLink:
 
     # -- signing ----------------------------------------------------------------------------
 
-    @property
-    def signing(self):
-        return self.mav.signing.secret_key is not None
-
     def enable_signing(self, key, timestamp=0, required=True, link_id=0):
         """Sign what we send with `key`; if `required`, drop what is not signed with it."""
-        if len(key) != SIGNING_KEY_LENGTH or not any(key):
-            raise SigningKeyError('a signing key is 32 bytes, not all zero')
-        s = self.mav.signing
-        with self._send_lock:
-            s.secret_key = bytes(key)
-            s.link_id = link_id
-            s.timestamp = max(timestamp, signing_timestamp_now())
-            s.sign_outgoing = True
-            s.allow_unsigned_callback = self._accept_unsigned
-        self.mav.check_signature = self._check_signature  # pymavlink's marks the stream before checking
-        self.signing_required = required
-        self._streams.clear()
+        self.signing.enable(key, timestamp, required, link_id)
 
     def disable_signing(self):
-        s = self.mav.signing
-        with self._send_lock:
-            s.secret_key, s.sign_outgoing, s.allow_unsigned_callback = None, False, None
-        self.signing_required = False
-
-    def _check_signature(self, msgbuf, src_system, src_component):
-        """Signature first, then the replay rules, and only a genuine frame moves a stream on."""
-        s = self.mav.signing
-        expected = hashlib.sha256(s.secret_key + bytes(msgbuf[:-6])).digest()[:6]
-        if not hmac.compare_digest(expected, bytes(msgbuf[-6:])):
-            self._signature_failed = True
-            return False
-        link_id = msgbuf[-13]
-        timestamp = int.from_bytes(msgbuf[-12:-6], 'little')
-        stream = (link_id, src_system, src_component)
-        last = self._streams.get(stream)
-        if (timestamp <= last) if last is not None else (timestamp + SIGNING_NEW_STREAM_WINDOW < s.timestamp):
-            self.stats['replayed'] += 1
-            self._signature_failed = True
-            return False
-        self._streams[stream] = timestamp
-        with self._send_lock:  # senders bump the same counter
-            s.timestamp = max(s.timestamp, timestamp)
-        return True
-
-    def _accept_unsigned(self, _mav, msg_id):
-        """pymavlink asks this for an unsigned frame, or a signed one that failed the check."""
-        failed, self._signature_failed = self._signature_failed, False
-        if not self.signing_required or msg_id in ALWAYS_ACCEPTED_UNSIGNED:
-            return True
-        if not failed:
-            self.stats['unsigned_rejected'] += 1
-        else:
-            self.stats['bad_signature'] += 1
-        kind = mavlink.mavlink_map.get(msg_id)
-        self.rejected_log(kind.msgname if kind else 'message id %d' % msg_id, failed)
-        return False
-
-    def rejected_log(self, name, bad_signature):
-        """Log the first rejections and then every 100th: an attack must not flood the log."""
-        total = self.stats['unsigned_rejected'] + self.stats['bad_signature']
-        if total <= 3 or total % 100 == 0:
-            log.warning('signing: rejected %s %s (%d unsigned, %d badly signed so far)',
-                        'a badly signed' if bad_signature else 'an unsigned', name,
-                        self.stats['unsigned_rejected'], self.stats['bad_signature'])
+        self.signing.disable()
 
     # -- send and receive -------------------------------------------------------------------
 
@@ -241,9 +131,7 @@ class MavlinkLink:
         if self.remote is None:
             return False
         with self._send_lock:
-            if self.mav.signing.sign_outgoing:
-                s = self.mav.signing
-                s.timestamp = max(s.timestamp, signing_timestamp_now())
+            self.signing.stamp_outgoing()
             data = msg.pack(self.mav)
         return self.send_bytes(data)
 
@@ -292,11 +180,9 @@ class MavlinkLink:
         if not valid:
             return
         self.last_receive_s = time.monotonic()
-        if sender is not None and self.learn_remote and sender != self.remote and (
-                not self.signing or any(m._signed for m in valid)):
-            # before dispatch: replies go to whoever asked; with signing on, only a signed
-            # frame moves the link (an unsigned RADIO_STATUS is let in, not followed)
-            self.remote = sender
+        if (sender is not None and self.learn_remote and sender != self.remote
+                and self.signing.may_move_remote(valid)):
+            self.remote = sender  # before dispatch: replies go to whoever asked
         if self.on_datagram is not None:
             self.on_datagram(data)
         for msg in valid:

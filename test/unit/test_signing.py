@@ -14,8 +14,9 @@ import pytest
 from pymavlink.dialects.v10 import common as mavlink1
 from pymavlink.dialects.v20 import development as mavlink2
 
-from offboard_py import mavlink_link
-from offboard_py.mavlink_link import MavlinkLink, SigningKeyError, read_signing_key, write_signing_key
+from offboard_py import signing
+from offboard_py.mavlink_link import MavlinkLink
+from offboard_py.signing import SigningKeyError, read_signing_key, write_signing_key
 
 KEY = bytes(range(1, 33))
 OTHER_KEY = bytes(range(101, 133))
@@ -37,7 +38,7 @@ def sender(key=None, system_id=255, timestamp=None):
     if key is not None:
         mav.signing.secret_key = key
         mav.signing.sign_outgoing = True
-        mav.signing.timestamp = mavlink_link.signing_timestamp_now() if timestamp is None else timestamp
+        mav.signing.timestamp = signing.signing_timestamp_now() if timestamp is None else timestamp
     return mav
 
 
@@ -92,7 +93,7 @@ def test_replay_is_rejected(link):
 
 def test_stale_new_stream_is_rejected(link):
     two_minutes = 2 * 60 * 100000
-    link.handle_datagram(arm_frame(sender(KEY, timestamp=mavlink_link.signing_timestamp_now() - two_minutes)))
+    link.handle_datagram(arm_frame(sender(KEY, timestamp=signing.signing_timestamp_now() - two_minutes)))
     assert link.received == [] and link.stats['replayed'] == 1
 
 
@@ -125,7 +126,7 @@ def test_outgoing_frames_are_signed_with_current_time():
         a.enable_signing(KEY)
         got = []
         a.on('HEARTBEAT', got.append)
-        before = mavlink_link.signing_timestamp_now()
+        before = signing.signing_timestamp_now()
         b.send(b.mav.heartbeat_encode(6, 8, 0, 0, 0))
         data, _ = a.sock.recvfrom(1000)
         assert data[2] & mavlink2.MAVLINK_IFLAG_SIGNED

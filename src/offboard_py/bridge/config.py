@@ -2,7 +2,8 @@
 
 import math
 
-from offboard_py.mavlink_link import SigningKeyError, UrlError, parse_udp_url, read_signing_key
+from offboard_py.mavlink_link import UrlError, parse_udp_url
+from offboard_py.signing import SigningKeyError, read_signing_key
 
 DEFAULT_FCU_URL = 'udp://:14540@localhost:14557'  # PX4 SITL, as in mavros's px4.launch
 

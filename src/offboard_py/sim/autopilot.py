@@ -11,7 +11,9 @@ import math
 import select
 import time
 
-from offboard_py.mavlink_link import MavlinkLink, SigningKeyError, mavlink, read_signing_key, write_signing_key
+from offboard_py.dialect import mavlink
+from offboard_py.mavlink_link import MavlinkLink
+from offboard_py.signing import SigningKeyError, read_signing_key, write_signing_key
 from offboard_py.sim import commander as cmdr
 from offboard_py.sim import mission as missions
 from offboard_py.sim import params as sim_params

@@ -10,7 +10,7 @@ import os
 import signal
 import sys
 
-from offboard_py.mavlink_link import SigningKeyError
+from offboard_py.signing import SigningKeyError
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.params import ParamRejected
