@@ -14,6 +14,7 @@ def test_defaults_are_px4_sitl():
     cfg = config()
     assert cfg['fcu'] == (('127.0.0.1', 14540), ('localhost', 14557))
     assert cfg['target_system_id'] == 1 and cfg['conn/timeout'] == 10.0
+    assert (cfg['target_component_id'], cfg['system_id'], cfg['component_id']) == (1, 1, 240)
     assert cfg['signing'] is None and cfg['signing/required'] is True
 
 

@@ -2,6 +2,7 @@
 
 import math
 
+from offboard_py.dialect import mavlink
 from offboard_py.mavlink_link import UrlError, parse_udp_url
 from offboard_py.signing import SigningKeyError, read_signing_key
 
@@ -29,8 +30,10 @@ def read_config(get):
         if not isinstance(value, str):
             raise ConfigError('parameter ~%s: expected a string, got %r' % (name, value))
         cfg[name] = value
-    for name, default, low, high in (('target_system_id', 1, 1, 255), ('target_component_id', 1, 0, 255),
-                                     ('system_id', 1, 1, 255), ('component_id', 240, 1, 255)):
+    # component ids as mavros's px4.launch: we talk to the autopilot and are a UDP bridge
+    for name, default, low, high in (('target_system_id', 1, 1, 255),
+                                     ('target_component_id', mavlink.MAV_COMP_ID_AUTOPILOT1, 0, 255),
+                                     ('system_id', 1, 1, 255), ('component_id', mavlink.MAV_COMP_ID_UDP_BRIDGE, 1, 255)):
         value = get(name, default)
         if isinstance(value, bool) or not isinstance(value, int):
             raise ConfigError('parameter ~%s: expected a whole number, got %r' % (name, value))

@@ -6,15 +6,25 @@ fields with NaN); one in a used field is a bad setpoint.
 
 import math
 
-IGNORE_PX, IGNORE_PY, IGNORE_PZ = 1, 2, 4
-IGNORE_VX, IGNORE_VY, IGNORE_VZ = 8, 16, 32
-IGNORE_AFX, IGNORE_AFY, IGNORE_AFZ = 64, 128, 256
-IGNORE_YAW, IGNORE_YAW_RATE = 1024, 2048
+from offboard_py.dialect import mavlink
 
-_FIELDS = (('position.x', IGNORE_PX), ('position.y', IGNORE_PY), ('position.z', IGNORE_PZ),
-           ('velocity.x', IGNORE_VX), ('velocity.y', IGNORE_VY), ('velocity.z', IGNORE_VZ),
-           ('acceleration_or_force.x', IGNORE_AFX), ('acceleration_or_force.y', IGNORE_AFY),
-           ('acceleration_or_force.z', IGNORE_AFZ), ('yaw', IGNORE_YAW), ('yaw_rate', IGNORE_YAW_RATE))
+# What mavros's setpoint_position sends: position and yaw used, the rest ignored.
+POSITION_YAW = (mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE |
+                mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE |
+                mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE |
+                mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
+
+_FIELDS = (('position.x', mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE),
+           ('position.y', mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE),
+           ('position.z', mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE),
+           ('velocity.x', mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE),
+           ('velocity.y', mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE),
+           ('velocity.z', mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE),
+           ('acceleration_or_force.x', mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE),
+           ('acceleration_or_force.y', mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE),
+           ('acceleration_or_force.z', mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE),
+           ('yaw', mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE),
+           ('yaw_rate', mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE))
 
 
 def bad_used_fields(type_mask, values):
