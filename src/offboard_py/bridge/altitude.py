@@ -1,20 +1,20 @@
 """mavros altitude: ~altitude (mavros_msgs/Altitude) from ALTITUDE."""
 
-import rospy
 from mavros_msgs.msg import Altitude as AltitudeMsg
 
 
 class Altitude:
     def __init__(self, bridge):
+        self.bridge = bridge
         self.frame_id = bridge.cfg['local_position/frame_id']
-        self.pub = rospy.Publisher('~altitude', AltitudeMsg, queue_size=10)
+        self.pub = bridge.publisher('~altitude', AltitudeMsg)
         bridge.on('ALTITUDE', self._on_altitude)
 
     def _on_altitude(self, alt):
         if not self.pub.get_num_connections():
             return
         msg = AltitudeMsg()
-        msg.header.stamp, msg.header.frame_id = rospy.Time.now(), self.frame_id
+        msg.header.stamp, msg.header.frame_id = self.bridge.now(), self.frame_id
         msg.monotonic, msg.amsl, msg.local = alt.altitude_monotonic, alt.altitude_amsl, alt.altitude_local
         msg.relative, msg.terrain = alt.altitude_relative, alt.altitude_terrain
         msg.bottom_clearance = alt.bottom_clearance

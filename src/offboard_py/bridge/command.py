@@ -2,7 +2,7 @@
 
 Each sends one COMMAND_LONG and waits for the matching COMMAND_ACK up to
 cmd/command_ack_timeout: success = ACCEPTED, result = the ACK's MAV_RESULT; no ACK gives
-success=false, result=4 (FAILED). A second call for a command that is still waiting
+success=false, result=MAV_RESULT_FAILED. A second call for a command that is still waiting
 fails as a service call, as in mavros. Different commands may wait at once.
 """
 
@@ -11,8 +11,9 @@ import threading
 import rospy
 from mavros_msgs.srv import CommandBool, CommandBoolResponse, CommandTOL, CommandTOLResponse
 
-CMD_NAV_LAND, CMD_NAV_TAKEOFF, CMD_COMPONENT_ARM_DISARM = 21, 22, 400
-MAV_RESULT_FAILED = 4
+from offboard_py.dialect import mavlink
+
+CONFIRMATION = 1  # what mavros's cmd plugin puts in COMMAND_LONG.confirmation for these services
 
 
 class Busy(Exception):
@@ -53,22 +54,22 @@ class Command:
         self.timeout_s = bridge.cfg['cmd/command_ack_timeout']
         bridge.on('COMMAND_ACK', self.waiter.on_ack)
         self.services = [
-            rospy.Service('~cmd/arming', CommandBool, self._arming),
-            rospy.Service('~cmd/takeoff', CommandTOL, self._takeoff),
-            rospy.Service('~cmd/land', CommandTOL, self._land),
+            bridge.service('~cmd/arming', CommandBool, self._arming),
+            bridge.service('~cmd/takeoff', CommandTOL, self._takeoff),
+            bridge.service('~cmd/land', CommandTOL, self._land),
         ]
 
-    def command_long(self, cmd, params, confirmation=1):
+    def command_long(self, cmd, params):
         """Send COMMAND_LONG and wait for its ACK: (success, MAV_RESULT); Busy if already waiting."""
         b = self.bridge
         entry = self.waiter.begin(cmd)
         try:
             params = list(params) + [0.0] * (7 - len(params))
-            b.send(b.mav.command_long_encode(b.target_system, b.target_component, cmd, confirmation, *params))
+            b.send(b.mav.command_long_encode(b.target_system, b.target_component, cmd, CONFIRMATION, *params))
             if not entry[0].wait(self.timeout_s):
                 rospy.logwarn('CMD: command %d: no COMMAND_ACK within %.1f s', cmd, self.timeout_s)
-                return False, MAV_RESULT_FAILED
-            return entry[1] == 0, entry[1]
+                return False, mavlink.MAV_RESULT_FAILED
+            return entry[1] == mavlink.MAV_RESULT_ACCEPTED, entry[1]
         finally:
             self.waiter.end(cmd)
 
@@ -79,15 +80,15 @@ class Command:
             raise rospy.ServiceException(str(err))
 
     def _arming(self, req):
-        success, result = self._call(CMD_COMPONENT_ARM_DISARM, [1.0 if req.value else 0.0])
+        success, result = self._call(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, [1.0 if req.value else 0.0])
         return CommandBoolResponse(success=success, result=result)
 
     def _takeoff(self, req):
-        success, result = self._call(CMD_NAV_TAKEOFF, [req.min_pitch, 0.0, 0.0, req.yaw, req.latitude,
-                                                       req.longitude, req.altitude])
+        success, result = self._call(mavlink.MAV_CMD_NAV_TAKEOFF, [req.min_pitch, 0.0, 0.0, req.yaw, req.latitude,
+                                                                   req.longitude, req.altitude])
         return CommandTOLResponse(success=success, result=result)
 
     def _land(self, req):
-        success, result = self._call(CMD_NAV_LAND, [0.0, 0.0, 0.0, req.yaw, req.latitude, req.longitude,
-                                                    req.altitude])
+        success, result = self._call(mavlink.MAV_CMD_NAV_LAND, [0.0, 0.0, 0.0, req.yaw, req.latitude,
+                                                                req.longitude, req.altitude])
         return CommandTOLResponse(success=success, result=result)

@@ -3,12 +3,11 @@
 While none has arrived, MAV_CMD_GET_HOME_POSITION is sent every 10 s, as mavros does.
 """
 
-import rospy
 from mavros_msgs.msg import HomePosition as HomePositionMsg
 
 from offboard_py import frames
+from offboard_py.dialect import mavlink
 
-CMD_GET_HOME_POSITION = 410
 REQUEST_PERIOD_S = 10.0
 
 
@@ -16,20 +15,20 @@ class HomePosition:
     def __init__(self, bridge):
         self.bridge = bridge
         self.received = False
-        self.pub = rospy.Publisher('~home_position/home', HomePositionMsg, queue_size=2, latch=True)
+        self.pub = bridge.publisher('~home_position/home', HomePositionMsg, queue_size=2, latch=True)
         bridge.on('HOME_POSITION', self._on_home)
         bridge.every(REQUEST_PERIOD_S, self._request)
 
     def _request(self, _now_s):
         b = self.bridge
         if b.connected and not self.received:
-            b.send(b.mav.command_long_encode(b.target_system, b.target_component, CMD_GET_HOME_POSITION, 0,
-                                             0, 0, 0, 0, 0, 0, 0))
+            b.send(b.mav.command_long_encode(b.target_system, b.target_component,
+                                             mavlink.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
 
     def _on_home(self, home):
         self.received = True
         msg = HomePositionMsg()
-        msg.header.stamp, msg.header.frame_id = rospy.Time.now(), 'map'
+        msg.header.stamp, msg.header.frame_id = self.bridge.now(), 'map'
         msg.geo.latitude, msg.geo.longitude, msg.geo.altitude = home.latitude * 1e-7, home.longitude * 1e-7, \
             home.altitude * 1e-3
         p = msg.position

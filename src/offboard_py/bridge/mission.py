@@ -16,11 +16,15 @@ from mavros_msgs.msg import Waypoint, WaypointList, WaypointReached
 from mavros_msgs.srv import (WaypointClear, WaypointClearResponse, WaypointPull, WaypointPullResponse, WaypointPush,
                              WaypointPushResponse)
 
-GLOBAL_FRAMES = {0, 3, 5, 6, 10, 11}
+from offboard_py.dialect import mavlink
+
+# frames whose x/y are latitude/longitude: MISSION_ITEM_INT carries them in degrees * 1e7
+GLOBAL_FRAMES = frozenset((mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                           mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                           mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT))
 FRAME_LOCAL_SCALE = 1e4            # MISSION_ITEM_INT: local x/y are metres * 1e4
 STEP_TIMEOUT_S, STEP_RETRIES = 1.0, 3
 PULL_AFTER_CONNECT_S = 2.0
-MISSION_ACCEPTED = 0
 TRANSFER_MESSAGES = ('MISSION_COUNT', 'MISSION_ITEM_INT', 'MISSION_ITEM', 'MISSION_REQUEST_INT', 'MISSION_REQUEST',
                      'MISSION_ACK')
 
@@ -53,11 +57,11 @@ class Mission:
         self.current_seq = 0
         self.transfer_lock = threading.Lock()
         self.inbox = None  # a Queue while a transfer runs
-        self.waypoints_pub = rospy.Publisher('~mission/waypoints', WaypointList, queue_size=2, latch=True)
-        self.reached_pub = rospy.Publisher('~mission/reached', WaypointReached, queue_size=10)
-        self.services = [rospy.Service('~mission/push', WaypointPush, self._push),
-                         rospy.Service('~mission/pull', WaypointPull, self._pull),
-                         rospy.Service('~mission/clear', WaypointClear, self._clear)]
+        self.waypoints_pub = bridge.publisher('~mission/waypoints', WaypointList, queue_size=2, latch=True)
+        self.reached_pub = bridge.publisher('~mission/reached', WaypointReached)
+        self.services = [bridge.service('~mission/push', WaypointPush, self._push),
+                         bridge.service('~mission/pull', WaypointPull, self._pull),
+                         bridge.service('~mission/clear', WaypointClear, self._clear)]
         for name in TRANSFER_MESSAGES:
             bridge.on(name, self._to_transfer)
         bridge.on('MISSION_CURRENT', self._on_current)
@@ -69,7 +73,9 @@ class Mission:
 
     def _to_transfer(self, msg):
         inbox = self.inbox
-        if inbox is not None and getattr(msg, 'mission_type', 0) == 0:
+        # fence and rally transfers are not ours
+        mission_type = getattr(msg, 'mission_type', mavlink.MAV_MISSION_TYPE_MISSION)
+        if inbox is not None and mission_type == mavlink.MAV_MISSION_TYPE_MISSION:
             inbox.put(msg)
 
     def _on_current(self, msg):
@@ -81,12 +87,12 @@ class Mission:
 
     def _on_reached(self, msg):
         out = WaypointReached()
-        out.header.stamp, out.wp_seq = rospy.Time.now(), msg.seq
+        out.header.stamp, out.wp_seq = self.bridge.now(), msg.seq
         rospy.loginfo('WP: reached #%d', msg.seq)
         self.reached_pub.publish(out)
 
     def _auto_pull(self):
-        if self.bridge.connected and not rospy.is_shutdown():
+        if self.bridge.connected and not self.bridge.is_shutdown():
             try:
                 count = self._transfer(self._do_pull)
                 rospy.loginfo('WP: mission received: %d items', count)
@@ -136,15 +142,17 @@ class Mission:
         b = self.bridge
         target = (b.target_system, b.target_component)
         count = self._wait(lambda m: m.count if m.get_type() == 'MISSION_COUNT' else None,
-                           lambda: b.send(b.mav.mission_request_list_encode(*target, 0)), 'MISSION_REQUEST_LIST')
+                           lambda: b.send(b.mav.mission_request_list_encode(*target, mavlink.MAV_MISSION_TYPE_MISSION)),
+                           'MISSION_REQUEST_LIST')
         items = []
         for seq in range(count):
             items.append(self._wait(
                 lambda m, seq=seq: m if m.get_type() in ('MISSION_ITEM_INT', 'MISSION_ITEM') and m.seq == seq
                 else None,
-                lambda seq=seq: b.send(b.mav.mission_request_int_encode(*target, seq, 0)),
+                lambda seq=seq: b.send(b.mav.mission_request_int_encode(*target, seq,
+                                                                         mavlink.MAV_MISSION_TYPE_MISSION)),
                 'MISSION_REQUEST_INT %d' % seq))
-        b.send(b.mav.mission_ack_encode(*target, MISSION_ACCEPTED, 0))
+        b.send(b.mav.mission_ack_encode(*target, mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_TYPE_MISSION))
         self.waypoints = [waypoint_from_item(item) for item in items]
         self.current_seq = next((i for i, item in enumerate(items) if item.current), self.current_seq)
         self._publish()
@@ -158,10 +166,10 @@ class Mission:
             return b.mav.mission_item_int_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
                                                  int(wp.autocontinue), wp.param1, wp.param2, wp.param3, wp.param4,
                                                  int(round(wp.x_lat * scale)), int(round(wp.y_long * scale)),
-                                                 wp.z_alt, 0)
+                                                 wp.z_alt, mavlink.MAV_MISSION_TYPE_MISSION)
         return b.mav.mission_item_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
                                          int(wp.autocontinue), wp.param1, wp.param2, wp.param3, wp.param4,
-                                         wp.x_lat, wp.y_long, wp.z_alt, 0)
+                                         wp.x_lat, wp.y_long, wp.z_alt, mavlink.MAV_MISSION_TYPE_MISSION)
 
     def _do_push(self, waypoints):
         b = self.bridge
@@ -179,8 +187,8 @@ class Mission:
             return None
         # MISSION_COUNT is repeated only until the FCU asks for an item; then it drives the transfer
         result = self._wait(accept, lambda: None if sent else b.send(b.mav.mission_count_encode(
-            *target, len(waypoints), 0)), 'MISSION_COUNT / items')
-        if result != MISSION_ACCEPTED:
+            *target, len(waypoints), mavlink.MAV_MISSION_TYPE_MISSION)), 'MISSION_COUNT / items')
+        if result != mavlink.MAV_MISSION_ACCEPTED:
             raise TransferError('FCU refused the mission: MAV_MISSION_RESULT %d' % result)
         self.waypoints = list(waypoints)
         self.current_seq = 0
@@ -191,8 +199,9 @@ class Mission:
         b = self.bridge
         target = (b.target_system, b.target_component)
         result = self._wait(lambda m: m.type if m.get_type() == 'MISSION_ACK' else None,
-                            lambda: b.send(b.mav.mission_clear_all_encode(*target, 0)), 'MISSION_CLEAR_ALL')
-        if result != MISSION_ACCEPTED:
+                            lambda: b.send(b.mav.mission_clear_all_encode(*target, mavlink.MAV_MISSION_TYPE_MISSION)),
+                            'MISSION_CLEAR_ALL')
+        if result != mavlink.MAV_MISSION_ACCEPTED:
             raise TransferError('FCU refused to clear: MAV_MISSION_RESULT %d' % result)
         self.waypoints, self.current_seq = [], 0
         self._publish()

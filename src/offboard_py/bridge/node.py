@@ -1,22 +1,17 @@
-"""The mavros-compatible node: parameters, the FCU (and optional GCS) link, the plugins.
+"""The mavros-compatible node: parameters, the FCU (and optional GCS) link, rospy, the plugins.
 
 Runs as node `mavros`; every topic and service is private (`~state` is /mavros/state),
-so a namespace moves a whole vehicle, as with real mavros. One thread receives MAVLink
-and runs the plugins' handlers; it also does the periodic work (our HEARTBEAT, the
-connection timeout, scheduled requests). Service calls run in rospy's threads and
-wait on events set by that receive thread, so a call waiting for an ACK never delays
-setpoints or telemetry.
+so a namespace moves a whole vehicle, as with real mavros. The plugins and what they are
+given live in core.py and one module each; this module is their rospy wiring.
 """
 
 import logging
-import select
 import sys
-import threading
-import time
 
 import rospy
 
 from offboard_py.bridge.config import ConfigError, read_config
+from offboard_py.bridge.core import Bridge
 from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
 from offboard_py.mavlink_link import MavlinkLink, UrlError
 from offboard_py.bridge import (altitude, command, global_position, home_position, imu, local_position,
@@ -27,98 +22,40 @@ PLUGINS = (sys_status.SysStatus, command.Command, setpoint.Setpoint, local_posit
            param.Param, mission.Mission)
 
 
-class Bridge:
-    def __init__(self, cfg):
-        self.cfg = cfg
-        self.target_system = cfg['target_system_id']
-        self.target_component = cfg['target_component_id']
-        (bind, remote) = cfg['fcu']
-        self.link = MavlinkLink(bind, remote, cfg['system_id'], cfg['component_id'])
-        if cfg['signing']:
-            self.link.enable_signing(*cfg['signing'], required=cfg['signing/required'])
-        self.mav = self.link.mav
-        self.gcs = None
-        if cfg['gcs']:
-            self.gcs = MavlinkLink(cfg['gcs'][0], cfg['gcs'][1], cfg['system_id'], cfg['component_id'])
-            self.link.on_datagram = self.gcs.send_bytes     # FCU -> GCS, raw
-            self.gcs.on_datagram = self._send_bytes_to_fcu  # GCS -> FCU, raw
-        self._periodic = []  # (period_s, next_s, callback)
-        self.connected = False
-        self._connection_listeners = []
-        self.plugins = [plugin(self) for plugin in PLUGINS]
-        self._running = False
-        self._thread = None
+class RospyEndpoints:
+    """The plugins' ROS side in the running node: names as given (`~...` is private to the node)."""
 
-    # -- services for the plugins ------------------------------------------------------------
+    @staticmethod
+    def publisher(name, data_class, queue_size, latch):
+        return rospy.Publisher(name, data_class, queue_size=queue_size, latch=latch)
 
-    def from_target(self, msg):
-        return msg.get_srcSystem() == self.target_system
+    @staticmethod
+    def subscriber(name, data_class, callback):
+        # setpoints: each one matters and waits for no other, so no Nagle batching
+        return rospy.Subscriber(name, data_class, callback, queue_size=10, tcp_nodelay=True)
 
-    def on(self, msg_type, handler):
-        """Handle `msg_type` from the target system only."""
-        self.link.on(msg_type, lambda msg: handler(msg) if self.from_target(msg) else None)
+    @staticmethod
+    def service(name, service_class, handler):
+        return rospy.Service(name, service_class, handler)
 
-    def send(self, msg):
-        return self.link.send(msg)
+    @staticmethod
+    def now():
+        return rospy.Time.now()
 
-    def _send_bytes_to_fcu(self, data):
-        self.link.send_bytes(data)
+    @staticmethod
+    def is_shutdown():
+        return rospy.is_shutdown()
 
-    def every(self, period_s, callback):
-        """Call callback(now_s) every period_s from the receive thread."""
-        self._periodic.append([period_s, time.monotonic(), callback])
 
-    def on_connection(self, callback):
-        """callback(connected) on every change of the FCU connection."""
-        self._connection_listeners.append(callback)
-
-    def after_connect(self, delay_s, callback):
-        """Call callback() delay_s after every new connection (from a timer thread)."""
-        def start(connected):
-            if connected:
-                timer = threading.Timer(delay_s, callback)
-                timer.daemon = True
-                timer.start()
-        self.on_connection(start)
-
-    def set_connected(self, connected):
-        if connected != self.connected:
-            self.connected = connected
-            for callback in self._connection_listeners:
-                callback(connected)
-
-    # -- the receive thread -------------------------------------------------------------------
-
-    def start(self):
-        self._running = True
-        self._thread = threading.Thread(target=self._loop, name='mavlink-receive', daemon=True)
-        self._thread.start()
-
-    def _loop(self):
-        links = [self.link] + ([self.gcs] if self.gcs else [])
-        while self._running and not rospy.is_shutdown():
-            try:
-                readable, _, _ = select.select(links, [], [], 0.02)
-            except (OSError, ValueError):
-                break  # sockets closed at shutdown
-            for link in readable:
-                link.receive()
-            now = time.monotonic()
-            for task in self._periodic:
-                if now >= task[1]:
-                    task[1] = max(task[1] + task[0], now)
-                    try:
-                        task[2](now)
-                    except Exception:  # a plugin bug must not stop the link
-                        rospy.logerr('periodic task %r failed', task[2], exc_info=True)
-
-    def stop(self):
-        self._running = False
-        if self._thread:
-            self._thread.join(timeout=2.0)
-        self.link.close()
-        if self.gcs:
-            self.gcs.close()
+def open_links(cfg):
+    """The FCU link (signed if configured) and the GCS link or None, from the checked parameters."""
+    link = MavlinkLink(cfg['fcu'][0], cfg['fcu'][1], cfg['system_id'], cfg['component_id'])
+    if cfg['signing']:
+        link.enable_signing(*cfg['signing'], required=cfg['signing/required'])
+    gcs = None
+    if cfg['gcs']:
+        gcs = MavlinkLink(cfg['gcs'][0], cfg['gcs'][1], cfg['system_id'], cfg['component_id'])
+    return link, gcs
 
 
 class _ToRosout(logging.Handler):
@@ -145,12 +82,13 @@ def main():
     logging.getLogger('offboard_py').setLevel(logging.INFO)
     try:
         cfg = read_config(lambda name, default: rospy.get_param('~' + name, default))
-        bridge = Bridge(cfg)
+        link, gcs = open_links(cfg)
+        bridge = Bridge(cfg, link, RospyEndpoints(), PLUGINS, gcs=gcs)
     except (ConfigError, UrlError, OSError) as err:
         rospy.logfatal('mavros bridge: %s', err)
         return 2
-    rospy.loginfo('FCU: %s (bound to %s:%d, %s)', cfg['fcu_url'], bridge.link.bind[0], bridge.link.bind[1],
-                  'sending to %s:%d' % bridge.link.remote if bridge.link.remote else 'waiting for the FCU to talk')
+    rospy.loginfo('FCU: %s (bound to %s:%d, %s)', cfg['fcu_url'], link.bind[0], link.bind[1],
+                  'sending to %s:%d' % link.remote if link.remote else 'waiting for the FCU to talk')
     if cfg['signing']:
         rospy.loginfo('MAVLink signing on (key %s): unsigned input is %s', cfg['signing/key_file'],
                       'rejected' if cfg['signing/required'] else 'accepted')

@@ -3,13 +3,12 @@
 The list is pulled from the FCU (PARAM_REQUEST_LIST; missing indices re-read one by
 one) shortly after the connection, as mavros does, and on ~param/pull. ~param/get answers
 from that list (unknown id: success=false). ~param/set sends PARAM_SET, with PX4's
-bytewise INT32 encoding, and waits for the PARAM_VALUE echo: success when the FCU
+bytewise INT32 encoding (offboard_py.param_codec), and waits for the PARAM_VALUE echo: success when the FCU
 echoes the value asked for. Integer parameters travel in value.integer, floats in value.real.
 """
 
 import collections
 import math
-import struct
 import threading
 import time
 
@@ -17,24 +16,13 @@ import rospy
 from mavros_msgs.msg import ParamValue
 from mavros_msgs.srv import ParamGet, ParamGetResponse, ParamPull, ParamPullResponse, ParamSet, ParamSetResponse
 
-INT_TYPES = {1, 2, 3, 4, 5, 6}   # MAV_PARAM_TYPE UINT8 .. INT32 (PX4 uses INT32)
+from offboard_py import param_codec
+
 PULL_AFTER_CONNECT_S = 10.0       # mavros waits for the FCU to boot before pulling
 LIST_TIMEOUT_S = 30.0
 SET_TIMEOUT_S, SET_RETRIES = 1.0, 3
 QUIET_S = 1.0                     # no PARAM_VALUE for this long: re-read what is missing
-
-
-def decode(param_type, wire):
-    """PX4 bytewise encoding: an integer's bytes travel in the float field."""
-    if param_type in INT_TYPES:
-        return struct.unpack('<i', struct.pack('<f', wire))[0]
-    return wire
-
-
-def encode(param_type, value):
-    if param_type in INT_TYPES:
-        return struct.unpack('<f', struct.pack('<i', int(value)))[0]
-    return float(value)
+INDEX_UNKNOWN = 0xFFFF            # PARAM_VALUE.param_index when the FCU gives none (MAVLink's -1 as uint16)
 
 
 class Param:
@@ -47,23 +35,23 @@ class Param:
         self.indices = set()
         self.last_value_s = 0.0
         self.pull_lock = threading.Lock()
-        self.services = [rospy.Service('~param/pull', ParamPull, self._pull),
-                         rospy.Service('~param/get', ParamGet, self._get),
-                         rospy.Service('~param/set', ParamSet, self._set)]
+        self.services = [bridge.service('~param/pull', ParamPull, self._pull),
+                         bridge.service('~param/get', ParamGet, self._get),
+                         bridge.service('~param/set', ParamSet, self._set)]
         bridge.on('PARAM_VALUE', self._on_value)
         bridge.after_connect(PULL_AFTER_CONNECT_S, self._auto_pull)
 
     def _auto_pull(self):
-        if self.bridge.connected and not rospy.is_shutdown() and not self.complete():
+        if self.bridge.connected and not self.bridge.is_shutdown() and not self.complete():
             count = self.pull(force=False)
             rospy.loginfo('PR: parameters received: %d', count)
 
     def _on_value(self, msg):
         with self.lock:
-            self.values[msg.param_id] = (decode(msg.param_type, msg.param_value), msg.param_type)
+            self.values[msg.param_id] = (param_codec.decode(msg.param_type, msg.param_value), msg.param_type)
             self.arrivals[msg.param_id] += 1
             self.count = msg.param_count
-            if msg.param_index != 0xFFFF:
+            if msg.param_index != INDEX_UNKNOWN:
                 self.indices.add(msg.param_index)
             self.last_value_s = time.monotonic()
             self.lock.notify_all()
@@ -84,7 +72,7 @@ class Param:
             b.send(b.mav.param_request_list_encode(b.target_system, b.target_component))
             deadline = time.monotonic() + LIST_TIMEOUT_S
             with self.lock:
-                while not self.complete() and time.monotonic() < deadline and not rospy.is_shutdown():
+                while not self.complete() and time.monotonic() < deadline and not b.is_shutdown():
                     self.lock.wait(0.2)
                     if self.count is not None and time.monotonic() - self.last_value_s > QUIET_S:
                         missing = sorted(set(range(self.count)) - self.indices)[:50]
@@ -100,7 +88,7 @@ class Param:
     @staticmethod
     def _value_msg(value, param_type):
         msg = ParamValue()
-        if param_type in INT_TYPES:
+        if param_codec.is_integer(param_type):
             msg.integer = int(value)
         else:
             msg.real = float(value)
@@ -126,8 +114,8 @@ class Param:
         if not math.isfinite(wanted):
             rospy.logerr('PR: %s: value %r is not a finite number', req.param_id, wanted)
             return ParamSetResponse(success=False, value=self._value_msg(*entry))
-        wanted = int(wanted) if param_type in INT_TYPES else float(wanted)
-        wire = encode(param_type, wanted)
+        wanted = int(wanted) if param_codec.is_integer(param_type) else float(wanted)
+        wire = param_codec.encode(param_type, wanted)
         for _ in range(SET_RETRIES):
             with self.lock:
                 before = self.arrivals[req.param_id]
@@ -138,7 +126,7 @@ class Param:
                 while time.monotonic() < deadline:
                     if self.arrivals[req.param_id] != before:
                         value, vtype = self.values[req.param_id]
-                        same = value == wanted or (vtype not in INT_TYPES and abs(value - wanted) < 1e-6 *
+                        same = value == wanted or (not param_codec.is_integer(vtype) and abs(value - wanted) < 1e-6 *
                                                    max(1.0, abs(wanted)))
                         return ParamSetResponse(success=same, value=self._value_msg(value, vtype))
                     self.lock.wait(0.05)

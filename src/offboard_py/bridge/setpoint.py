@@ -1,7 +1,7 @@
 """mavros setpoint_position and setpoint_raw: ROS setpoints out as SET_POSITION_TARGET_LOCAL_NED.
 
-- ~setpoint_position/local (PoseStamped, ENU): frame LOCAL_NED, type_mask 0x9F8 (position
-  and yaw), position ENU->NED, yaw from the orientation converted to NED/FRD. frame_id is
+- ~setpoint_position/local (PoseStamped, ENU): frame LOCAL_NED, type_mask position and yaw
+  (0x9F8), position ENU->NED, yaw from the orientation converted to NED/FRD. frame_id is
   ignored, as in mavros.
 - ~setpoint_raw/local (PositionTarget): LOCAL_NED (and LOCAL_OFFSET_NED) vectors ENU->NED,
   BODY_NED (and BODY_OFFSET_NED) vectors FLU->FRD; yaw_ned = pi/2 - yaw, yaw_rate negated;
@@ -11,7 +11,6 @@ A setpoint with a NaN or infinite number in a field it uses is not sent, and is 
 """
 
 import math
-import time
 
 import rospy
 from geometry_msgs.msg import PoseStamped
@@ -19,9 +18,8 @@ from mavros_msgs.msg import PositionTarget
 
 from offboard_py import frames
 from offboard_py.bridge import typemask
+from offboard_py.dialect import mavlink
 
-TYPE_MASK_POSITION_YAW = 0x9F8
-FRAME_LOCAL_NED = 1
 BODY_FRAMES = (PositionTarget.FRAME_BODY_NED, PositionTarget.FRAME_BODY_OFFSET_NED)
 
 
@@ -44,15 +42,14 @@ class Setpoint:
         self.rejected = 0
         self._last_log_s = {}
         self.subs = [
-            rospy.Subscriber('~setpoint_position/local', PoseStamped, self._on_pose, queue_size=10,
-                             tcp_nodelay=True),
-            rospy.Subscriber('~setpoint_raw/local', PositionTarget, self._on_raw, queue_size=10, tcp_nodelay=True),
+            bridge.subscriber('~setpoint_position/local', PoseStamped, self._on_pose),
+            bridge.subscriber('~setpoint_raw/local', PositionTarget, self._on_raw),
         ]
 
     def _reject(self, topic, what):
         """Count and log; at most one line per topic every 5 s (rospy's throttle would merge topics)."""
         self.rejected += 1
-        now = time.monotonic()
+        now = self.bridge.monotonic_s()
         if now - self._last_log_s.get(topic, -math.inf) >= 5.0:
             self._last_log_s[topic] = now
             rospy.logwarn('SP: %s: setpoint with %s not sent (%d rejected so far)', topic, what, self.rejected)
@@ -66,8 +63,8 @@ class Setpoint:
         yaw = frames.quaternion_yaw(frames.orientation_enu_to_ned((q.x, q.y, q.z, q.w)))
         b = self.bridge
         b.send(b.mav.set_position_target_local_ned_encode(
-            _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, FRAME_LOCAL_NED,
-            TYPE_MASK_POSITION_YAW, north, east, down, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, yaw, 0.0))
+            _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, mavlink.MAV_FRAME_LOCAL_NED,
+            typemask.POSITION_YAW, north, east, down, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, yaw, 0.0))
 
     def _on_raw(self, msg):
         p, v, a = msg.position, msg.velocity, msg.acceleration_or_force

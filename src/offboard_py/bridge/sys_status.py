@@ -14,9 +14,8 @@ from mavros_msgs.msg import ExtendedState, State
 from mavros_msgs.srv import SetMode, SetModeResponse
 
 from offboard_py import px4_modes
-
-MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, MAV_STATE_ACTIVE = 18, 8, 4
-CMD_REQUEST_AUTOPILOT_CAPABILITIES = 520
+from offboard_py.bridge import filters
+from offboard_py.dialect import mavlink
 
 
 def custom_mode_from_string(text):
@@ -37,10 +36,10 @@ class SysStatus:
         self.timeout_s = bridge.cfg['conn/timeout']
         self.last_heartbeat_s = None
         self.base_mode = 0
-        self.state_pub = rospy.Publisher('~state', State, queue_size=10, latch=True)
-        self.extended_pub = rospy.Publisher('~extended_state', ExtendedState, queue_size=10)
-        self.set_mode_srv = rospy.Service('~set_mode', SetMode, self._set_mode)
-        bridge.link.on('HEARTBEAT', self._on_heartbeat)
+        self.state_pub = bridge.publisher('~state', State, latch=True)
+        self.extended_pub = bridge.publisher('~extended_state', ExtendedState)
+        self.set_mode_srv = bridge.service('~set_mode', SetMode, self._set_mode)
+        bridge.on('HEARTBEAT', self._on_heartbeat, filters.COMPONENT)
         bridge.on('EXTENDED_SYS_STATE', self._on_extended_state)
         rate = bridge.cfg['conn/heartbeat_rate']
         if rate > 0:
@@ -49,31 +48,29 @@ class SysStatus:
         self._publish_disconnected()
 
     def armed(self):
-        return bool(self.base_mode & px4_modes.SAFETY_ARMED)
+        return bool(self.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
     def _publish_disconnected(self):
         msg = State()
-        msg.header.stamp = rospy.Time.now()
+        msg.header.stamp = self.bridge.now()
         self.state_pub.publish(msg)
 
     def _on_heartbeat(self, hb):
         b = self.bridge
-        if hb.get_srcSystem() != b.target_system or hb.get_srcComponent() != b.target_component:
-            return
-        self.last_heartbeat_s = b.link.last_receive_s
+        self.last_heartbeat_s = b.monotonic_s()
         self.base_mode = hb.base_mode
         msg = State()
-        msg.header.stamp = rospy.Time.now()
+        msg.header.stamp = b.now()
         msg.connected = True
-        msg.armed = bool(hb.base_mode & px4_modes.SAFETY_ARMED)
-        msg.guided = bool(hb.base_mode & px4_modes.GUIDED_ENABLED)
-        msg.manual_input = bool(hb.base_mode & px4_modes.MANUAL_INPUT_ENABLED)
+        msg.armed = bool(hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+        msg.guided = bool(hb.base_mode & mavlink.MAV_MODE_FLAG_GUIDED_ENABLED)
+        msg.manual_input = bool(hb.base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED)
         msg.mode = px4_modes.mode_string(hb.base_mode, hb.custom_mode)
         msg.system_status = hb.system_status
         if not b.connected:
             rospy.loginfo('CON: Got HEARTBEAT, connected. FCU: PX4 Autopilot')
             b.send(b.mav.command_long_encode(b.target_system, b.target_component,
-                                             CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0, 1, 0, 0, 0, 0, 0, 0))
+                                             mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0, 1, 0, 0, 0, 0, 0, 0))
         b.set_connected(True)
         self.state_pub.publish(msg)
 
@@ -88,13 +85,14 @@ class SysStatus:
         if not self.extended_pub.get_num_connections():
             return
         msg = ExtendedState()
-        msg.header.stamp = rospy.Time.now()
+        msg.header.stamp = self.bridge.now()
         msg.vtol_state, msg.landed_state = ext.vtol_state, ext.landed_state
         self.extended_pub.publish(msg)
 
     def _send_heartbeat(self, _now_s):
         b = self.bridge
-        b.send(b.mav.heartbeat_encode(MAV_TYPE_ONBOARD_CONTROLLER, MAV_AUTOPILOT_INVALID, 0, 0, MAV_STATE_ACTIVE))
+        b.send(b.mav.heartbeat_encode(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
+                                      mavlink.MAV_STATE_ACTIVE))
 
     def _set_mode(self, req):
         b = self.bridge
@@ -105,8 +103,8 @@ class SysStatus:
             if custom_mode is None:
                 rospy.logerr('MODE: Unknown mode: %s', req.custom_mode)
                 return SetModeResponse(mode_sent=False)
-            base_mode |= px4_modes.CUSTOM_MODE_ENABLED
+            base_mode |= mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
             if self.armed():
-                base_mode |= px4_modes.SAFETY_ARMED
+                base_mode |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
         b.send(b.mav.set_mode_encode(b.target_system, base_mode & 0xFF, custom_mode))
         return SetModeResponse(mode_sent=True)

@@ -1,0 +1,142 @@
+"""What every bridge plugin is given: the FCU link, the ROS side, clocks, the connection.
+
+A plugin is a class built with the Bridge and using only this interface:
+- MAVLink: `on(msg_type, handler, accept=filters.SYSTEM)`, `send(msg)`, `mav` (the codec that
+  builds messages), `target_system`, `target_component`, `attitude` (the shared cache);
+- ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
+  to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
+- time and connection: `monotonic_s()`, `every`, `after_connect`, `on_connection`, `connected`.
+One thread receives MAVLink and runs the handlers and the periodic work (`start()`); service
+calls run in other threads and wait on events that thread sets. This module opens no
+socket and reads no ROS parameter: node.py does that.
+"""
+
+import select
+import threading
+import time
+
+import rospy
+
+from offboard_py.bridge import filters
+from offboard_py.bridge.attitude import Attitude
+
+
+class Bridge:
+    def __init__(self, cfg, link, ros, plugins=(), gcs=None, clock=time.monotonic):
+        """`link` (and `gcs`) are MavlinkLinks, `ros` gives publisher/subscriber/service/now/is_shutdown,
+        `clock` is the monotonic clock in seconds of every() and of connection timeouts."""
+        self.cfg = cfg
+        self.target_system = cfg['target_system_id']
+        self.target_component = cfg['target_component_id']
+        self.link = link
+        self.mav = link.mav
+        self.gcs = gcs
+        if gcs:
+            link.on_datagram = gcs.send_bytes     # FCU -> GCS, raw
+            gcs.on_datagram = link.send_bytes     # GCS -> FCU, raw
+        self._ros = ros
+        self._clock = clock
+        self._periodic = []  # [period_s, next_s, callback]
+        self.connected = False
+        self._connection_listeners = []
+        self.attitude = Attitude()
+        # registered before any plugin's handler, so readers see this message's attitude
+        self.on('ATTITUDE_QUATERNION', self.attitude.update)
+        self.plugins = [plugin(self) for plugin in plugins]
+        self._running = False
+        self._thread = None
+
+    # -- MAVLink ------------------------------------------------------------------------------
+
+    def on(self, msg_type, handler, accept=filters.SYSTEM):
+        """Call handler(msg) for each `msg_type` message that `accept` (a filters.* function) lets through."""
+        def filtered(msg):
+            if accept(msg, self.target_system, self.target_component):
+                handler(msg)
+        self.link.on(msg_type, filtered)
+
+    def send(self, msg):
+        """Send to the FCU; False while its address is unknown."""
+        return self.link.send(msg)
+
+    # -- ROS ----------------------------------------------------------------------------------
+
+    def publisher(self, name, data_class, queue_size=10, latch=False):
+        return self._ros.publisher(name, data_class, queue_size=queue_size, latch=latch)
+
+    def subscriber(self, name, data_class, callback):
+        return self._ros.subscriber(name, data_class, callback)
+
+    def service(self, name, service_class, handler):
+        return self._ros.service(name, service_class, handler)
+
+    def now(self):
+        """A header stamp (ROS time)."""
+        return self._ros.now()
+
+    def is_shutdown(self):
+        return self._ros.is_shutdown()
+
+    # -- time and connection ------------------------------------------------------------------
+
+    def monotonic_s(self):
+        return self._clock()
+
+    def every(self, period_s, callback):
+        """Call callback(now_s) every period_s from the receive thread."""
+        self._periodic.append([period_s, self._clock(), callback])
+
+    def run_periodic(self, now_s):
+        """Run the periodic callbacks that are due at now_s (the receive loop's clock)."""
+        for task in self._periodic:
+            if now_s >= task[1]:
+                task[1] = max(task[1] + task[0], now_s)
+                try:
+                    task[2](now_s)
+                except Exception:  # a plugin bug must not stop the link
+                    rospy.logerr('periodic task %r failed', task[2], exc_info=True)
+
+    def on_connection(self, callback):
+        """callback(connected) on every change of the FCU connection."""
+        self._connection_listeners.append(callback)
+
+    def after_connect(self, delay_s, callback):
+        """Call callback() delay_s after every new connection (from a timer thread)."""
+        def start(connected):
+            if connected:
+                timer = threading.Timer(delay_s, callback)
+                timer.daemon = True
+                timer.start()
+        self.on_connection(start)
+
+    def set_connected(self, connected):
+        if connected != self.connected:
+            self.connected = connected
+            for callback in self._connection_listeners:
+                callback(connected)
+
+    # -- the receive thread -------------------------------------------------------------------
+
+    def start(self):
+        self._running = True
+        self._thread = threading.Thread(target=self._loop, name='mavlink-receive', daemon=True)
+        self._thread.start()
+
+    def _loop(self):
+        links = [self.link] + ([self.gcs] if self.gcs else [])
+        while self._running and not self.is_shutdown():
+            try:
+                readable, _, _ = select.select(links, [], [], 0.02)
+            except (OSError, ValueError):
+                break  # sockets closed at shutdown
+            for link in readable:
+                link.receive()
+            self.run_periodic(self._clock())
+
+    def stop(self):
+        self._running = False
+        if self._thread:
+            self._thread.join(timeout=2.0)
+        self.link.close()
+        if self.gcs:
+            self.gcs.close()
