@@ -1,0 +1,502 @@
+"""The bridge's plugins offline: a fake FCU link, in-memory ROS endpoints, no roscore.
+
+Each test builds the real Bridge with the plugin under test on a FakeLink. The FakeFcu
+packs its frames with its own pymavlink codec (system 1, component 1) and hands the bytes
+to the bridge; what the plugin sends is packed by the bridge's codec and parsed back by
+the FakeFcu, which may answer at once from a per-message-type script. Topics, services
+and subscriptions live in FakeRos; time in FakeClock, moved by the test.
+"""
+
+import math
+import struct
+import threading
+import time
+
+import pytest
+import rospy
+from geometry_msgs.msg import PoseStamped
+from mavros_msgs.msg import Waypoint
+from mavros_msgs.srv import (CommandBoolRequest, CommandTOLRequest, ParamGetRequest, ParamPullRequest,
+                             ParamSetRequest, SetModeRequest, WaypointPullRequest, WaypointPushRequest)
+
+from offboard_py import frames
+from offboard_py.bridge import command, imu, local_position, mission, param, setpoint, sys_status
+from offboard_py.bridge.config import read_config
+from offboard_py.bridge.core import Bridge
+from offboard_py.dialect import mavlink
+
+OFFBOARD = 6 << 16                  # PX4 custom_mode: main mode 6
+AUTO_LOITER = (4 << 16) | (3 << 24)  # main mode 4 (AUTO), sub-mode 3 (LOITER)
+BUILD = mavlink.MAVLink(None)       # builds messages; whoever sends one packs it with its own ids
+
+
+# -- fakes ------------------------------------------------------------------------------------
+
+class FakeLink:
+    """The bridge's end of the FCU link, in memory, with MavlinkLink's on/send/mav."""
+
+    def __init__(self):
+        self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_UDP_BRIDGE)
+        self.handlers = {}
+        self.fcu = None
+        self._lock = threading.Lock()
+
+    def on(self, msg_type, handler):
+        self.handlers.setdefault(msg_type, []).append(handler)
+
+    def send(self, msg):
+        with self._lock:
+            data = msg.pack(self.mav)
+        self.fcu.receive(data)
+        return True
+
+    def handle_datagram(self, data):
+        for msg in mavlink.MAVLink(None).parse_buffer(data) or []:
+            for handler in self.handlers.get(msg.get_type(), ()):
+                handler(msg)
+
+
+class FakeFcu:
+    """The autopilot's end: sends frames as (1, 1), records what it gets, answers by script."""
+
+    def __init__(self, link):
+        self.link = link
+        link.fcu = self
+        self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.received = []
+        self.answers = {}  # message type -> function(msg) returning the messages to send back
+
+    def send(self, msg, codec=None):
+        self.link.handle_datagram(msg.pack(codec or self.mav))
+
+    def receive(self, data):
+        for msg in mavlink.MAVLink(None).parse_buffer(data) or []:
+            self.received.append(msg)
+            for reply in self.answers.get(msg.get_type(), lambda _msg: ())(msg):
+                self.send(reply)
+
+    def got(self, msg_type):
+        return [m for m in self.received if m.get_type() == msg_type]
+
+
+class FakePublisher:
+    def __init__(self, latch, queue_size):
+        self.latch, self.queue_size = latch, queue_size
+        self.messages = []
+        self.connections = 1
+
+    def publish(self, msg):
+        self.messages.append(msg)
+
+    def get_num_connections(self):
+        return self.connections
+
+
+class FakeRos:
+    def __init__(self):
+        self.topics, self.services, self.subscriptions = {}, {}, {}
+
+    def publisher(self, name, _data_class, queue_size, latch):
+        self.topics[name] = FakePublisher(latch, queue_size)
+        return self.topics[name]
+
+    def subscriber(self, name, _data_class, callback):
+        self.subscriptions[name] = callback
+
+    def service(self, name, _service_class, handler):
+        self.services[name] = handler
+
+    @staticmethod
+    def now():
+        return rospy.Time(1000)
+
+    @staticmethod
+    def is_shutdown():
+        return False
+
+
+class FakeClock:
+    def __init__(self, now_s=100.0):
+        self.now_s = now_s
+
+    def __call__(self):
+        return self.now_s
+
+
+class Rig:
+    """One bridge with the given plugins on a fake link."""
+
+    def __init__(self, *plugins, **params):
+        cfg = read_config(lambda name, default: params.get(name.replace('/', '__'), default))
+        self.link, self.ros, self.clock = FakeLink(), FakeRos(), FakeClock()
+        self.fcu = FakeFcu(self.link)
+        self.bridge = Bridge(cfg, self.link, self.ros, plugins, clock=self.clock)
+        self.plugin = self.bridge.plugins[0]
+
+    def call(self, service, request):
+        return self.ros.services[service](request)
+
+    def published(self, topic):
+        return self.ros.topics[topic].messages
+
+    def tick(self, now_s):
+        self.clock.now_s = now_s
+        self.bridge.run_periodic(now_s)
+
+
+def heartbeat(base_mode=mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, custom_mode=AUTO_LOITER):
+    return BUILD.heartbeat_encode(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, base_mode, custom_mode,
+                                  mavlink.MAV_STATE_STANDBY)
+
+
+def same_rotation(q, expected):
+    """q and -q are the same rotation."""
+    return tuple(q) == pytest.approx(expected) or tuple(-c for c in q) == pytest.approx(expected)
+
+
+def wait_until(condition, timeout_s=2.0):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.005)
+    return True
+
+
+# -- sys_status --------------------------------------------------------------------------------
+
+def test_heartbeat_connects_publishes_state_and_asks_for_capabilities():
+    rig = Rig(sys_status.SysStatus)
+    states = rig.published('~state')
+    assert rig.ros.topics['~state'].latch and len(states) == 1 and not states[0].connected
+    rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+                           | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED))
+    state = states[-1]
+    assert (state.connected, state.armed, state.guided, state.mode) == (True, True, True, 'AUTO.LOITER')
+    assert state.system_status == mavlink.MAV_STATE_STANDBY
+    [request] = rig.fcu.got('COMMAND_LONG')
+    assert request.command == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES and request.param1 == 1
+    rig.fcu.send(heartbeat())
+    assert len(rig.fcu.got('COMMAND_LONG')) == 1, 'capabilities are asked for once per connection'
+
+
+def test_heartbeat_from_another_component_or_system_is_ignored():
+    rig = Rig(sys_status.SysStatus)
+    camera = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_CAMERA)
+    other_vehicle = mavlink.MAVLink(None, srcSystem=2, srcComponent=1)
+    rig.fcu.send(heartbeat(), codec=camera)
+    rig.fcu.send(heartbeat(), codec=other_vehicle)
+    assert not rig.bridge.connected
+    assert [s.connected for s in rig.published('~state')] == [False]
+    assert rig.fcu.got('COMMAND_LONG') == []
+
+
+def test_other_components_of_the_target_system_pass_the_default_filter():
+    rig = Rig(sys_status.SysStatus)
+    camera = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_CAMERA)
+    other_vehicle = mavlink.MAVLink(None, srcSystem=2, srcComponent=1)
+    rig.fcu.send(BUILD.extended_sys_state_encode(0, mavlink.MAV_LANDED_STATE_IN_AIR), codec=camera)
+    rig.fcu.send(BUILD.extended_sys_state_encode(0, mavlink.MAV_LANDED_STATE_ON_GROUND), codec=other_vehicle)
+    assert [m.landed_state for m in rig.published('~extended_state')] == [mavlink.MAV_LANDED_STATE_IN_AIR]
+
+
+def test_connection_times_out_after_conn_timeout():
+    rig = Rig(sys_status.SysStatus, conn__timeout=2.0)
+    rig.fcu.send(heartbeat())
+    assert rig.bridge.connected
+    rig.tick(101.9)
+    assert rig.bridge.connected, 'still within conn/timeout'
+    rig.tick(102.2)
+    assert not rig.bridge.connected
+    assert [s.connected for s in rig.published('~state')] == [False, True, False]
+    rig.tick(105.0)
+    assert len(rig.published('~state')) == 3, 'one disconnected State, not one per check'
+
+
+def test_our_heartbeat_is_an_onboard_controller_at_heartbeat_rate():
+    rig = Rig(sys_status.SysStatus, conn__heartbeat_rate=2.0)
+    for t in (100.0, 100.2, 100.5, 100.7, 101.0):
+        rig.tick(t)
+    beats = rig.fcu.got('HEARTBEAT')
+    assert len(beats) == 3
+    assert (beats[0].type, beats[0].autopilot, beats[0].system_status) == (
+        mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, mavlink.MAV_STATE_ACTIVE)
+
+
+def test_set_mode_sends_custom_mode_and_keeps_armed():
+    rig = Rig(sys_status.SysStatus)
+    assert rig.call('~set_mode', SetModeRequest(custom_mode='offboard')).mode_sent
+    rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED))
+    assert rig.call('~set_mode', SetModeRequest(custom_mode='0x%x' % AUTO_LOITER)).mode_sent
+    sent = [(m.target_system, m.base_mode, m.custom_mode) for m in rig.fcu.got('SET_MODE')]
+    assert sent == [(1, 1, OFFBOARD), (1, 1 | 128, AUTO_LOITER)]
+
+
+def test_set_mode_refuses_an_unknown_mode():
+    rig = Rig(sys_status.SysStatus)
+    assert not rig.call('~set_mode', SetModeRequest(custom_mode='HOVER')).mode_sent
+    assert rig.fcu.got('SET_MODE') == []
+
+
+# -- command -----------------------------------------------------------------------------------
+
+def ack_with(result, command_id=None):
+    """An FCU script: answer each COMMAND_LONG with COMMAND_ACK(result), for command_id if given."""
+    return lambda m: [BUILD.command_ack_encode(command_id or m.command, result)]
+
+
+def test_command_without_ack_fails_after_the_timeout():
+    rig = Rig(command.Command, cmd__command_ack_timeout=0.1)
+    started = time.monotonic()
+    response = rig.call('~cmd/arming', CommandBoolRequest(value=True))
+    assert (response.success, response.result) == (False, mavlink.MAV_RESULT_FAILED)
+    assert 0.1 <= time.monotonic() - started < 1.0
+    [sent] = rig.fcu.got('COMMAND_LONG')
+    assert (sent.target_system, sent.target_component, sent.command, sent.param1) == (
+        1, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0)
+
+
+def test_command_ack_gives_its_result():
+    rig = Rig(command.Command)
+    rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED)
+    response = rig.call('~cmd/arming', CommandBoolRequest(value=False))
+    assert (response.success, response.result) == (True, mavlink.MAV_RESULT_ACCEPTED)
+    assert rig.fcu.got('COMMAND_LONG')[0].param1 == 0.0
+    rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_DENIED)
+    response = rig.call('~cmd/land', CommandTOLRequest())
+    assert (response.success, response.result) == (False, mavlink.MAV_RESULT_DENIED)
+
+
+def test_ack_for_another_command_does_not_answer():
+    rig = Rig(command.Command, cmd__command_ack_timeout=0.1)
+    rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_CMD_NAV_LAND)
+    response = rig.call('~cmd/arming', CommandBoolRequest(value=True))
+    assert (response.success, response.result) == (False, mavlink.MAV_RESULT_FAILED)
+
+
+def test_takeoff_carries_position_and_yaw():
+    rig = Rig(command.Command)
+    rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED)
+    assert rig.call('~cmd/takeoff', CommandTOLRequest(min_pitch=0.1, yaw=1.5, latitude=47.25, longitude=8.5,
+                                                      altitude=500.0)).success
+    [sent] = rig.fcu.got('COMMAND_LONG')
+    assert sent.command == mavlink.MAV_CMD_NAV_TAKEOFF
+    assert [sent.param1, sent.param4, sent.param5, sent.param6, sent.param7] == pytest.approx(
+        [0.1, 1.5, 47.25, 8.5, 500.0])
+
+
+def test_second_call_for_a_waiting_command_is_refused():
+    rig = Rig(command.Command, cmd__command_ack_timeout=5.0)
+    results = []
+    first = threading.Thread(target=lambda: results.append(rig.call('~cmd/arming', CommandBoolRequest(value=True))))
+    first.start()
+    assert wait_until(lambda: rig.fcu.got('COMMAND_LONG')), 'the first call sent no COMMAND_LONG'
+    with pytest.raises(rospy.ServiceException):
+        rig.call('~cmd/arming', CommandBoolRequest(value=True))
+    rig.fcu.send(BUILD.command_ack_encode(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavlink.MAV_RESULT_ACCEPTED))
+    first.join(2.0)
+    assert not first.is_alive() and results[0].success
+    assert len(rig.fcu.got('COMMAND_LONG')) == 1, 'the refused call sends nothing'
+
+
+# -- mission -----------------------------------------------------------------------------------
+
+def waypoint(frame, cmd, x, y, z, current=False):
+    return Waypoint(frame=frame, command=cmd, is_current=current, autocontinue=True, x_lat=x, y_long=y, z_alt=z)
+
+
+PLAN = [waypoint(mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_TAKEOFF, 47.397742, 8.545594, 10.0, True),
+        waypoint(mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_CMD_NAV_WAYPOINT, 1.5, -2.25, -5.0)]
+
+
+class MissionFcu:
+    """The FCU's side of the mission protocol: takes an upload, serves its items on a download."""
+
+    def __init__(self, fcu, legacy=False, result=mavlink.MAV_MISSION_ACCEPTED):
+        self.legacy, self.result = legacy, result
+        self.count, self.items = 0, []
+        fcu.answers.update({'MISSION_COUNT': self._on_count, 'MISSION_ITEM_INT': self._on_item,
+                            'MISSION_ITEM': self._on_item, 'MISSION_REQUEST_LIST': self._on_request_list,
+                            'MISSION_REQUEST_INT': self._on_request})
+
+    def _request(self, seq):
+        encode = BUILD.mission_request_encode if self.legacy else BUILD.mission_request_int_encode
+        return encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, seq)
+
+    def _on_count(self, msg):
+        self.count, self.items = msg.count, []
+        return [self._request(0)]
+
+    def _on_item(self, msg):
+        self.items.append(msg)
+        if len(self.items) < self.count:
+            return [self._request(len(self.items))]
+        return [BUILD.mission_ack_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, self.result)]
+
+    def _on_request_list(self, _msg):
+        return [BUILD.mission_count_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, len(self.items))]
+
+    def _on_request(self, msg):
+        item = self.items[msg.seq]
+        return [BUILD.mission_item_int_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, msg.seq, item.frame, item.command,
+                                                 item.current, item.autocontinue, 0, 0, 0, 0, item.x, item.y, item.z)]
+
+
+def test_mission_push_sends_items_as_mission_item_int():
+    rig = Rig(mission.Mission)
+    fcu = MissionFcu(rig.fcu)
+    response = rig.call('~mission/push', WaypointPushRequest(waypoints=PLAN))
+    assert (response.success, response.wp_transfered) == (True, 2)
+    assert len(rig.fcu.got('MISSION_COUNT')) == 1 and rig.fcu.got('MISSION_COUNT')[0].count == 2
+    takeoff, local = fcu.items
+    assert (takeoff.get_type(), takeoff.seq, takeoff.frame, takeoff.current) == (
+        'MISSION_ITEM_INT', 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, 1)
+    assert (takeoff.x, takeoff.y, takeoff.z) == (473977420, 85455940, 10.0), 'degrees * 1e7'
+    assert (local.x, local.y, local.z) == (15000, -22500, -5.0), 'local metres * 1e4'
+    assert all(item.mission_type == mavlink.MAV_MISSION_TYPE_MISSION for item in fcu.items)
+    published = rig.published('~mission/waypoints')[-1]
+    assert [wp.command for wp in published.waypoints] == [mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT]
+
+
+def test_mission_push_answers_a_legacy_request_with_mission_item():
+    rig = Rig(mission.Mission)
+    fcu = MissionFcu(rig.fcu, legacy=True)
+    assert rig.call('~mission/push', WaypointPushRequest(waypoints=PLAN)).success
+    assert [item.get_type() for item in fcu.items] == ['MISSION_ITEM', 'MISSION_ITEM']
+    assert (fcu.items[0].x, fcu.items[0].y) == pytest.approx((47.397742, 8.545594))
+
+
+def test_mission_refused_by_the_fcu_is_a_failed_push():
+    rig = Rig(mission.Mission)
+    MissionFcu(rig.fcu, result=mavlink.MAV_MISSION_NO_SPACE)
+    response = rig.call('~mission/push', WaypointPushRequest(waypoints=PLAN))
+    assert (response.success, response.wp_transfered) == (False, 0)
+    assert rig.published('~mission/waypoints')[-1].waypoints == []
+
+
+def test_mission_pull_reads_every_item_and_acknowledges():
+    rig = Rig(mission.Mission)
+    fcu = MissionFcu(rig.fcu)
+    assert rig.call('~mission/push', WaypointPushRequest(waypoints=PLAN)).success
+    rig.plugin.waypoints = []
+    response = rig.call('~mission/pull', WaypointPullRequest())
+    assert (response.success, response.wp_received) == (True, 2)
+    assert [m.seq for m in rig.fcu.got('MISSION_REQUEST_INT')] == [0, 1]
+    [ack] = rig.fcu.got('MISSION_ACK')
+    assert ack.type == mavlink.MAV_MISSION_ACCEPTED
+    pulled = rig.published('~mission/waypoints')[-1]
+    assert [c for wp in pulled.waypoints for c in (wp.x_lat, wp.y_long)] == pytest.approx([47.397742, 8.545594, 1.5,
+                                                                                            -2.25])
+    assert pulled.waypoints[0].is_current and len(fcu.items) == 2
+
+
+def test_mission_pull_from_a_silent_fcu_fails_after_the_retries(monkeypatch):
+    monkeypatch.setattr(mission, 'STEP_TIMEOUT_S', 0.02)
+    rig = Rig(mission.Mission)
+    response = rig.call('~mission/pull', WaypointPullRequest())
+    assert (response.success, response.wp_received) == (False, 0)
+    assert len(rig.fcu.got('MISSION_REQUEST_LIST')) == mission.STEP_RETRIES + 1
+
+
+# -- param -------------------------------------------------------------------------------------
+
+def int32_on_wire(value):
+    """PX4's bytewise encoding, written out here so the test does not trust the code under test."""
+    return struct.unpack('<f', struct.pack('<i', value))[0]
+
+
+PARAMS = [('MAV_SYS_ID', mavlink.MAV_PARAM_TYPE_INT32, 1), ('MPC_XY_VEL_MAX', mavlink.MAV_PARAM_TYPE_REAL32, 12.0),
+          ('COM_RCL_EXCEPT', mavlink.MAV_PARAM_TYPE_INT32, 4), ('NAV_DLL_ACT', mavlink.MAV_PARAM_TYPE_INT32, -1),
+          ('MIS_TAKEOFF_ALT', mavlink.MAV_PARAM_TYPE_REAL32, 2.5)]
+
+
+def param_value(index):
+    name, kind, value = PARAMS[index]
+    wire = int32_on_wire(value) if kind == mavlink.MAV_PARAM_TYPE_INT32 else value
+    return BUILD.param_value_encode(name.encode(), wire, kind, len(PARAMS), index)
+
+
+def test_param_pull_rereads_the_missing_indices(monkeypatch):
+    monkeypatch.setattr(param, 'QUIET_S', 0.05)
+    monkeypatch.setattr(param, 'LIST_TIMEOUT_S', 2.0)
+    rig = Rig(param.Param)
+    lost = {2, 4}
+    rig.fcu.answers['PARAM_REQUEST_LIST'] = lambda _m: [param_value(i) for i in range(len(PARAMS))
+                                                        if i not in lost]
+    rig.fcu.answers['PARAM_REQUEST_READ'] = lambda m: [param_value(m.param_index)]
+    response = rig.call('~param/pull', ParamPullRequest())
+    assert (response.success, response.param_received) == (True, 5)
+    reads = rig.fcu.got('PARAM_REQUEST_READ')
+    assert sorted(m.param_index for m in reads) == [2, 4], 'only the missing indices are re-read'
+    assert all((m.target_system, m.target_component) == (1, 1) for m in reads)
+    got = rig.call('~param/get', ParamGetRequest(param_id='COM_RCL_EXCEPT'))
+    assert got.success and got.value.integer == 4
+    assert rig.call('~param/get', ParamGetRequest(param_id='NAV_DLL_ACT')).value.integer == -1
+    assert rig.call('~param/get', ParamGetRequest(param_id='MIS_TAKEOFF_ALT')).value.real == 2.5
+    assert not rig.call('~param/get', ParamGetRequest(param_id='NO_SUCH_PARAM')).success
+
+
+def test_param_set_sends_an_integer_bytewise_and_waits_for_the_echo():
+    rig = Rig(param.Param)
+    rig.fcu.send(param_value(2))
+    rig.fcu.answers['PARAM_SET'] = lambda m: [BUILD.param_value_encode(m.param_id.encode(), m.param_value,
+                                                                             m.param_type, len(PARAMS), 2)]
+    request = ParamSetRequest(param_id='COM_RCL_EXCEPT')
+    request.value.integer = 7
+    response = rig.call('~param/set', request)
+    assert response.success and response.value.integer == 7
+    [sent] = rig.fcu.got('PARAM_SET')
+    assert sent.param_type == mavlink.MAV_PARAM_TYPE_INT32
+    assert struct.pack('<f', sent.param_value) == struct.pack('<i', 7)
+
+
+# -- attitude, imu, local_position ---------------------------------------------------------------
+
+def test_attitude_is_converted_once_and_shared_by_imu_and_local_position(monkeypatch):
+    conversions = []
+    convert = frames.orientation_ned_to_enu
+    monkeypatch.setattr(frames, 'orientation_ned_to_enu', lambda q: conversions.append(q) or convert(q))
+    rig = Rig(local_position.LocalPosition, imu.Imu)
+    # facing north in NED (identity), rolling at 0.1, pitching at 0.2, yawing at 0.3 rad/s (FRD)
+    rig.fcu.send(BUILD.attitude_quaternion_encode(0, 1.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3))
+    assert len(conversions) == 1
+    [data] = rig.published('~imu/data')
+    north_in_enu = (0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5))   # yaw +90 deg about ENU z
+    assert same_rotation((data.orientation.x, data.orientation.y, data.orientation.z, data.orientation.w),
+                         north_in_enu)
+    w = data.angular_velocity
+    assert (w.x, w.y, w.z) == pytest.approx((0.1, -0.2, -0.3)), 'body rates FRD -> FLU'
+    rig.fcu.send(BUILD.local_position_ned_encode(0, 1.0, 2.0, -3.0, 0.5, 0.0, 0.0))
+    [pose] = rig.published('~local_position/pose')
+    p, q = pose.pose.position, pose.pose.orientation
+    assert (p.x, p.y, p.z) == pytest.approx((2.0, 1.0, 3.0))
+    assert same_rotation((q.x, q.y, q.z, q.w), north_in_enu)
+    [twist] = rig.published('~local_position/velocity_local')
+    lin, ang = twist.twist.linear, twist.twist.angular
+    assert (lin.x, lin.y, lin.z) == pytest.approx((0.0, 0.5, 0.0))
+    # roll about the nose (north: ENU y), pitch about the right wing (east: ENU x), yaw about down
+    assert (ang.x, ang.y, ang.z) == pytest.approx((0.2, 0.1, -0.3))
+    assert len(conversions) == 1
+
+
+def test_pose_orientation_is_identity_before_any_attitude():
+    rig = Rig(local_position.LocalPosition)
+    rig.fcu.send(BUILD.local_position_ned_encode(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    q = rig.published('~local_position/pose')[0].pose.orientation
+    assert (q.x, q.y, q.z, q.w) == (0.0, 0.0, 0.0, 1.0)
+
+
+# -- setpoint ----------------------------------------------------------------------------------
+
+def test_setpoint_position_goes_out_as_position_and_yaw_in_ned():
+    rig = Rig(setpoint.Setpoint)
+    pose = PoseStamped()
+    pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = 1.0, 2.0, 3.0
+    pose.pose.orientation.w = 1.0   # facing east (ENU yaw 0)
+    rig.ros.subscriptions['~setpoint_position/local'](pose)
+    [sent] = rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')
+    assert (sent.coordinate_frame, sent.type_mask) == (mavlink.MAV_FRAME_LOCAL_NED, 0x9F8)
+    assert (sent.x, sent.y, sent.z, sent.yaw) == pytest.approx((2.0, 1.0, -3.0, math.pi / 2))
+    pose.pose.position.x = float('nan')
+    rig.ros.subscriptions['~setpoint_position/local'](pose)
+    assert len(rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')) == 1 and rig.plugin.rejected == 1
