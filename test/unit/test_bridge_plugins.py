@@ -20,7 +20,7 @@ from mavros_msgs.srv import (CommandBoolRequest, CommandTOLRequest, ParamGetRequ
                              ParamSetRequest, SetModeRequest, WaypointPullRequest, WaypointPushRequest)
 
 from offboard_py import frames
-from offboard_py.bridge import command, imu, local_position, mission, param, setpoint, sys_status
+from offboard_py.bridge import command, imu, local_position, mission, node, param, setpoint, sys_status
 from offboard_py.bridge.config import read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import mavlink
@@ -161,6 +161,25 @@ def wait_until(condition, timeout_s=2.0):
             return False
         time.sleep(0.005)
     return True
+
+
+# -- the node's ROS interface -------------------------------------------------------------------
+
+def test_all_plugins_offer_mavros_names_latching_and_queues():
+    rig = Rig(*node.PLUGINS)
+    assert set(rig.ros.services) == {
+        '~set_mode', '~cmd/arming', '~cmd/takeoff', '~cmd/land', '~param/pull', '~param/get', '~param/set',
+        '~mission/push', '~mission/pull', '~mission/clear'}
+    assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local'}
+    topics = rig.ros.topics
+    assert set(topics) == {
+        '~state', '~extended_state', '~local_position/pose', '~local_position/velocity_local',
+        '~global_position/global', '~altitude', '~imu/data', '~home_position/home', '~mission/waypoints',
+        '~mission/reached'}
+    assert {name for name, pub in topics.items() if pub.latch} == {'~state', '~home_position/home',
+                                                                   '~mission/waypoints'}
+    assert {name: pub.queue_size for name, pub in topics.items() if pub.queue_size != 10} == {
+        '~home_position/home': 2, '~mission/waypoints': 2}
 
 
 # -- sys_status --------------------------------------------------------------------------------
