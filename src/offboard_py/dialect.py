@@ -9,6 +9,10 @@ never as a number, and builds and parses frames with the same module.
 
 from pymavlink.dialects.v20 import development as mavlink  # noqa: F401  (re-exported)
 
+# Names from MAVLink's XML that this pymavlink release does not carry, named once here.
+MAV_CMD_INJECT_FAILURE = 420   # common.xml: inject a failure (PX4, with SYS_FAILURE_EN)
+FAILURE_TYPE_OK = 0            # common.xml FAILURE_TYPE: no failure (param2 of MAV_CMD_INJECT_FAILURE)
+
 # PX4's "force" magic in COMPONENT_ARM_DISARM param2: arm or disarm whatever the checks say.
 # MAVLink defines the value in the command's documentation, not as an enum.
 ARM_DISARM_FORCE_MAGIC = 21196

@@ -1,94 +1,111 @@
-"""The simulated PX4's pure modules, offline: setpoint decoding, commander rules, the model."""
+"""The simulated PX4's pure modules, offline: setpoint decoding, commander rules, navigator, the model."""
 
 import math
 
 import pytest
 
-from offboard_py.sim import commander as cmdr
-from offboard_py.sim import mission as missions
+from offboard_py import param_codec
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink
+from offboard_py.sim import events as ev
+from offboard_py.sim import offboard_input
+from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
-from offboard_py.sim.params import MAV_PARAM_TYPE_INT32, ParamRejected, ParamStore, decode_value, encode_value
-from offboard_py.sim.vehicle import Vehicle
+from offboard_py.sim.params import ParamRejected, ParamStore
 
 NAN = float('nan')
-POS_YAW = 0x9F8
+M = mavlink
+IGNORE_VELOCITY = M.POSITION_TARGET_TYPEMASK_VX_IGNORE | M.POSITION_TARGET_TYPEMASK_VY_IGNORE | \
+    M.POSITION_TARGET_TYPEMASK_VZ_IGNORE
+IGNORE_POSITION = M.POSITION_TARGET_TYPEMASK_X_IGNORE | M.POSITION_TARGET_TYPEMASK_Y_IGNORE | \
+    M.POSITION_TARGET_TYPEMASK_Z_IGNORE
+IGNORE_ACCELERATION = M.POSITION_TARGET_TYPEMASK_AX_IGNORE | M.POSITION_TARGET_TYPEMASK_AY_IGNORE | \
+    M.POSITION_TARGET_TYPEMASK_AZ_IGNORE
+POS_YAW = IGNORE_VELOCITY | IGNORE_ACCELERATION | M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # mavros's 0x9F8
+ACCEPTED, TEMPORARILY_REJECTED, DENIED = M.MAV_RESULT_ACCEPTED, M.MAV_RESULT_TEMPORARILY_REJECTED, M.MAV_RESULT_DENIED
 
 
 def make(ready_delay_s=0.0, rc=False, **overrides):
     params = ParamStore({k: v for k, v in overrides.items()})
-    vehicle = Vehicle(params)
-    runner = missions.MissionRunner(params, LocalFrame(47.0, 8.0, 500.0))
-    return cmdr.Commander(params, vehicle, runner, 0.0, ready_delay_s=ready_delay_s, rc=rc)
+    return Flight(params, LocalFrame(47.0, 8.0, 500.0), 0.0, ready_delay_s=ready_delay_s, rc=rc)
 
 
-def fly(c, t0, seconds, sp=None, dt=0.01):
+def fly(f, t0, seconds, sp=None, dt=0.01):
     t = t0
     for _ in range(int(seconds / dt)):
         t += dt
         if sp is not None:
-            c.on_offboard_setpoint(sp, t)
-        c.tick(t, dt)
+            f.on_offboard_setpoint(sp, t)
+        f.step(t, dt)
     return t
 
 
-def position_setpoint(n=0.0, e=0.0, d=-2.0):
-    return cmdr.offboard_setpoint(1, POS_YAW, (n, e, d), (0, 0, 0), (0, 0, 0), 0.0, 0.0, 0.0)
+def position_setpoint(n=0.0, e=0.0, d=-2.0, mask=POS_YAW):
+    return offboard_input.offboard_setpoint(M.MAV_FRAME_LOCAL_NED, mask, (n, e, d), (0, 0, 0), (0, 0, 0), 0.0, 0.0,
+                                            0.0)
 
 
 def test_setpoint_decoding():
     sp = position_setpoint(1, 2, -3)
     assert sp.position == (1.0, 2.0, -3.0) and all(math.isnan(v) for v in sp.velocity)
     assert sp.yaw == 0.0 and math.isnan(sp.yaw_rate)
-    body = cmdr.offboard_setpoint(8, 0xDC7, (5, 5, 5), (1, 0, 0), (0, 0, 0), 0, 0, math.pi / 2)
+    velocity_only = IGNORE_POSITION | IGNORE_ACCELERATION | M.POSITION_TARGET_TYPEMASK_YAW_IGNORE
+    body = offboard_input.offboard_setpoint(M.MAV_FRAME_BODY_NED, velocity_only, (5, 5, 5), (1, 0, 0), (0, 0, 0),
+                                            0, 0, math.pi / 2)
     assert all(math.isnan(v) for v in body.position), 'BODY_NED ignores position'
     assert body.velocity[:2] == pytest.approx((0.0, 1.0)), 'body x forward, facing east'
 
 
+def test_force_bit_with_acceleration_ignored_is_a_position_setpoint():
+    """Measured on PX4 SITL (px4-sitl-measured.md, Answers): taken as a normal position setpoint."""
+    sp = position_setpoint(mask=POS_YAW | M.POSITION_TARGET_TYPEMASK_FORCE_SET)
+    assert sp.position == (0.0, 0.0, -2.0) and all(math.isnan(v) for v in sp.acceleration)
+
+
 @pytest.mark.parametrize('frame, mask, position, words', [
-    (7, POS_YAW, (0, 0, -2), 'frame 7'),
-    (1, POS_YAW | 512, (0, 0, -2), 'force'),
-    (1, 0x1FF, (0, 0, -2), 'no position'),
-    (1, POS_YAW, (0, 0, math.inf), 'infinite'),
-    (1, POS_YAW, (NAN, NAN, NAN), 'no position'),
+    (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POS_YAW, (0, 0, -2), 'frame 6'),
+    (M.MAV_FRAME_LOCAL_NED, M.POSITION_TARGET_TYPEMASK_FORCE_SET | IGNORE_VELOCITY, (0, 0, -2), 'force'),
+    (M.MAV_FRAME_LOCAL_NED, IGNORE_POSITION | IGNORE_VELOCITY | IGNORE_ACCELERATION, (0, 0, -2), 'no position'),
+    (M.MAV_FRAME_LOCAL_NED, POS_YAW, (0, 0, math.inf), 'infinite'),
+    (M.MAV_FRAME_LOCAL_NED, POS_YAW, (NAN, NAN, NAN), 'no position'),
 ])
 def test_setpoint_rejections(frame, mask, position, words):
-    with pytest.raises(cmdr.SetpointRejected, match=words):
-        cmdr.offboard_setpoint(frame, mask, position, (0, 0, 0), (0, 0, 0), 0, 0, 0)
+    with pytest.raises(offboard_input.SetpointRejected, match=words):
+        offboard_input.offboard_setpoint(frame, mask, position, (0, 0, 0), (0, 0, 0), 0, 0, 0)
 
 
 def test_modes_while_disarmed_and_armed():
     c = make()
-    assert c.request_mode('OFFBOARD', 1.0) == cmdr.ACCEPTED, 'any mode while disarmed'
-    assert c.request_arming(True, False, 1.0) == cmdr.TEMPORARILY_REJECTED, 'no offboard signal'
-    assert c.request_mode('AUTO.LOITER', 1.0) == cmdr.ACCEPTED
-    assert c.request_arming(True, False, 1.0) == cmdr.ACCEPTED
-    assert c.request_mode('OFFBOARD', 1.1) == cmdr.TEMPORARILY_REJECTED
-    assert c.request_mode('POSCTL', 1.1) == cmdr.TEMPORARILY_REJECTED, 'no RC'
-    assert c.request_mode('AUTO.MISSION', 1.1) == cmdr.TEMPORARILY_REJECTED, 'no mission'
+    assert c.request_mode('OFFBOARD', 1.0) == ACCEPTED, 'any mode while disarmed'
+    assert c.request_arming(True, False, 1.0) == TEMPORARILY_REJECTED, 'no offboard signal'
+    assert c.request_mode('AUTO.LOITER', 1.0) == ACCEPTED
+    assert c.request_arming(True, False, 1.0) == ACCEPTED
+    assert c.request_mode('OFFBOARD', 1.1) == TEMPORARILY_REJECTED
+    assert c.request_mode('POSCTL', 1.1) == TEMPORARILY_REJECTED, 'no RC'
+    assert c.request_mode('AUTO.MISSION', 1.1) == TEMPORARILY_REJECTED, 'no mission'
     c.on_offboard_setpoint(position_setpoint(), 1.2)
-    assert c.request_mode('OFFBOARD', 1.3) == cmdr.ACCEPTED
+    assert c.request_mode('OFFBOARD', 1.3) == ACCEPTED
     for refused in ('AUTO.READY', 'AUTO.RTGS', None):
-        assert c.request_mode(refused, 1.3) == cmdr.TEMPORARILY_REJECTED
+        assert c.request_mode(refused, 1.3) == TEMPORARILY_REJECTED
 
 
 def test_not_ready_then_ready():
     c = make(ready_delay_s=5.0)
-    assert c.request_arming(True, False, 4.9) == cmdr.TEMPORARILY_REJECTED
-    assert c.request_arming(True, True, 4.9) == cmdr.ACCEPTED, '21196 forces'
+    assert c.request_arming(True, False, 4.9) == TEMPORARILY_REJECTED
+    assert c.request_arming(True, True, 4.9) == ACCEPTED, '21196 forces'
 
 
 def test_offboard_takeoff_overshoot_and_hold():
     c = make()
     c.on_offboard_setpoint(position_setpoint(), 0.0)
     c.request_mode('OFFBOARD', 0.0)
-    assert c.request_arming(True, False, 0.0) == cmdr.ACCEPTED
+    assert c.request_arming(True, False, 0.0) == ACCEPTED
     t, highest = 0.0, 0.0
     for _ in range(1500):
         t = fly(c, t, 0.01, position_setpoint())
         highest = min(highest, c.vehicle.position[2])
     assert highest >= -2.2, 'overshoot %.2f m' % (-highest - 2)
     assert abs(c.vehicle.position[2] + 2.0) < 0.05
-    assert c.takeoff_detected and c.armed
+    assert c.commander.takeoff_detected and c.commander.armed
 
 
 def test_failsafe_without_and_with_rc():
@@ -99,12 +116,12 @@ def test_failsafe_without_and_with_rc():
         c.request_arming(True, False, 0.0)
         t = fly(c, 0.0, 10.0, position_setpoint())
         last = t
-        while c.nav_mode == 'OFFBOARD':
+        while c.commander.nav_mode == 'OFFBOARD':
             t = fly(c, t, 0.01)
-        assert c.nav_mode == expected and c.failsafe
+        assert c.commander.nav_mode == expected and c.commander.failsafe
         assert t - last <= c.params['COM_OF_LOSS_T'] + 0.02
-        assert c.user_mode == 'OFFBOARD', 'the intended mode stays'
-        assert c.system_status() == cmdr.STATE_CRITICAL
+        assert c.commander.user_mode == 'OFFBOARD', 'the intended mode stays'
+        assert c.commander.system_status() == M.MAV_STATE_CRITICAL
 
 
 def test_land_then_back_to_user_mode_and_auto_disarm():
@@ -112,27 +129,27 @@ def test_land_then_back_to_user_mode_and_auto_disarm():
     c.request_arming(True, False, 0.0)
     c.takeoff(NAN, 500.0, 0.0)
     t = fly(c, 0.0, 15.0)
-    assert c.nav_mode == 'AUTO.LOITER' and abs(c.vehicle.height() - 2.5) < 0.35
+    assert c.commander.nav_mode == 'AUTO.LOITER' and abs(c.vehicle.height() - 2.5) < 0.35
     c.request_mode('AUTO.LAND', t)
-    assert c.request_arming(False, False, t) == cmdr.DENIED, 'not landed'
+    assert c.request_arming(False, False, t) == DENIED, 'not landed'
     t = fly(c, t, 20.0)
-    assert not c.armed and c.nav_mode == 'AUTO.LOITER'
+    assert not c.commander.armed and c.commander.nav_mode == 'AUTO.LOITER'
 
 
 def test_preflight_disarm():
     c = make(COM_DISARM_PRFLT=2.0)
     c.request_arming(True, False, 0.0)
     t = fly(c, 0.0, 1.9)
-    assert c.armed
+    assert c.commander.armed
     fly(c, t, 0.2)
-    assert not c.armed
+    assert not c.commander.armed
 
 
 def test_params_encoding_and_ranges():
     p = ParamStore({'COM_OF_LOSS_T': 1.0})
     assert p['COM_OF_LOSS_T'] == 1.0
-    wire = encode_value(MAV_PARAM_TYPE_INT32, 4)
-    assert decode_value(MAV_PARAM_TYPE_INT32, wire) == 4 and wire != 4.0
+    wire = param_codec.encode(M.MAV_PARAM_TYPE_INT32, 4)
+    assert param_codec.decode(M.MAV_PARAM_TYPE_INT32, wire) == 4 and wire != 4.0
     with pytest.raises(ParamRejected, match='outside'):
         p.set('MIS_TAKEOFF_ALT', 1000.0)
     with pytest.raises(ParamRejected, match='integer'):
@@ -149,3 +166,65 @@ def test_geo_round_trip():
     lat, lon, alt = f.to_global(100.0, -50.0, -10.0)
     assert f.to_local(lat, lon, alt) == pytest.approx((100.0, -50.0, -10.0))
     assert alt == pytest.approx(498.0)
+
+
+def test_takeoff_events_are_typed_and_in_order():
+    f = make()
+    assert f.request_arming(True, False, 0.0) == ACCEPTED
+    assert f.takeoff(NAN, 500.0, 0.0) == ACCEPTED
+    early = f.take_events()
+    assert ev.ArmingChanged(True, 'commanded') in early and ev.ModeChanged('AUTO.TAKEOFF', False) in early
+    fly(f, 0.0, 15.0)
+    later = f.take_events()
+    assert ev.StatusText(M.MAV_SEVERITY_INFO, 'Takeoff complete') in later
+    assert later.index(ev.ModeChanged('AUTO.LOITER', False)) > later.index(
+        ev.StatusText(M.MAV_SEVERITY_INFO, 'Takeoff complete'))
+    st = f.status(15.0)
+    assert (st.nav_mode, st.armed, st.landed_state) == ('AUTO.LOITER', True, M.MAV_LANDED_STATE_IN_AIR)
+    assert st.height == pytest.approx(2.5, abs=0.35)
+
+
+def test_takeoff_altitude_from_the_command():
+    f = make()
+    f.request_arming(True, False, 0.0)
+    f.takeoff(505.0, 500.0, 0.0)  # AMSL 505 m over a home at 500 m: 5 m up
+    fly(f, 0.0, 20.0)
+    assert f.commander.nav_mode == 'AUTO.LOITER' and f.vehicle.height() == pytest.approx(5.0, abs=0.35)
+
+
+def test_mission_items_reached_in_order():
+    from offboard_py.sim.mission import Item
+    f = make()
+    local = M.MAV_FRAME_LOCAL_NED
+    f.load_mission([Item(local, M.MAV_CMD_NAV_TAKEOFF, 1, 0, 0, 0, NAN, 0.0, 0.0, -3.0),
+                    Item(local, M.MAV_CMD_NAV_WAYPOINT, 1, 0, 1.0, 0, NAN, 5.0, 0.0, -3.0),
+                    Item(local, M.MAV_CMD_NAV_LAND, 1, 0, 0, 0, NAN, 5.0, 0.0, 0.0)])
+    assert f.request_mode('AUTO.MISSION', 0.0) == ACCEPTED
+    assert f.request_arming(True, False, 0.0) == ACCEPTED
+    f.take_events()
+    fly(f, 0.0, 40.0)
+    reached = [e.seq for e in f.take_events() if isinstance(e, ev.ItemReached)]
+    assert reached == [0, 1, 2]
+    assert f.vehicle.position[0] == pytest.approx(5.0, abs=1.0) and f.vehicle.landed
+
+
+def test_current_mode_carries_the_standard_mode():
+    from offboard_py.sim.telemetry import TelemetryBuilder
+    f = make()
+    builder = TelemetryBuilder(M.MAVLink(None), LocalFrame(47.0, 8.0, 500.0), f.params)
+    for mode, standard in (('AUTO.MISSION', M.MAV_STANDARD_MODE_MISSION), ('AUTO.LAND', M.MAV_STANDARD_MODE_LAND),
+                           ('AUTO.TAKEOFF', M.MAV_STANDARD_MODE_TAKEOFF), ('OFFBOARD', M.MAV_STANDARD_MODE_NON_STANDARD)):
+        f.request_mode(mode, 1.0)
+        msg = builder.current_mode(f.status(1.0))
+        assert (msg.standard_mode, msg.custom_mode) == (standard, f.status(1.0).custom_mode), mode
+
+
+def test_force_disarm_magic_in_the_air():
+    f = make()
+    f.on_offboard_setpoint(position_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = fly(f, 0.0, 8.0, position_setpoint())
+    assert f.request_arming(False, False, t) == DENIED
+    assert f.request_arming(False, True, t) == ACCEPTED and not f.commander.armed
+    assert ARM_DISARM_FORCE_MAGIC == 21196

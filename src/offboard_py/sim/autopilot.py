@@ -1,9 +1,10 @@
 """MAVLink I/O of the simulated PX4: receive handlers, command dispatch, the real-time loop.
 
 Binds UDP like PX4 SITL's offboard-API link (local 14580+N, sending to 14540+N, then to
-whoever talks to it), answers every COMMAND_LONG/COMMAND_INT with a COMMAND_ACK, ignores
-what is addressed to another system, and steps the commander at `rate_hz` in real time,
-sending the telemetry streams that are due after each step.
+whoever talks to it), answers every COMMAND_LONG/COMMAND_INT with a COMMAND_ACK through a
+table {MAV_CMD: handler}, ignores what is addressed to another system, and steps the
+flight stack (sim.flight) at `rate_hz` in real time, sending the telemetry streams that are
+due after each step and what the flight stack said (mode changes, texts, mission progress).
 """
 
 import logging
@@ -11,34 +12,33 @@ import math
 import select
 import time
 
-from offboard_py.dialect import mavlink
+from offboard_py import param_codec
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
 from offboard_py.signing import SigningKeyError, read_signing_key, write_signing_key
-from offboard_py.sim import commander as cmdr
+from offboard_py.sim import events as ev
 from offboard_py.sim import mission as missions
+from offboard_py.sim import offboard_input
 from offboard_py.sim import params as sim_params
 from offboard_py.sim import telemetry
+from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
-from offboard_py.sim.vehicle import Vehicle
 
 log = logging.getLogger('offboard_py.sim')
 
-# MAV_CMD
-CMD_NAV_RETURN_TO_LAUNCH, CMD_NAV_LAND, CMD_NAV_TAKEOFF = 20, 21, 22
-CMD_DO_SET_MODE, CMD_MISSION_START, CMD_COMPONENT_ARM_DISARM = 176, 300, 400
-CMD_GET_HOME_POSITION, CMD_INJECT_FAILURE = 410, 420
-CMD_GET_MESSAGE_INTERVAL, CMD_SET_MESSAGE_INTERVAL, CMD_REQUEST_MESSAGE = 510, 511, 512
-CMD_REQUEST_AUTOPILOT_CAPABILITIES = 520
-FAILURE_TYPE_OK = 0
-
 SITL_LOCAL_PORT, SITL_REMOTE_PORT = 14580, 14540
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
+
+ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
+# What REQUEST_MESSAGE's older, dedicated commands ask for
+REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
+                        mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION}
 
 
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
                  param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=time.monotonic,
-                 setpoint_log=None, signing_key_file=None, allowed_systems=()):
+                 signing_key_file=None, allowed_systems=()):
         self.clock = clock
         self.system_id = instance + 1
         self.rate_hz = rate_hz
@@ -48,19 +48,15 @@ class SimulatedPx4:
         for text in param_overrides:
             self.params.parse_override(text)
         self.frame = LocalFrame(*home)
-        self.vehicle = Vehicle(self.params)
-        self.runner = missions.MissionRunner(self.params, self.frame)
-        self.commander = cmdr.Commander(self.params, self.vehicle, self.runner, self.t(now),
-                                        ready_delay_s=ready_delay_s, rc=rc)
+        self.flight = Flight(self.params, self.frame, self.t(now), ready_delay_s=ready_delay_s, rc=rc)
         local_port = SITL_LOCAL_PORT + instance if local_port is None else local_port
         remote_port = SITL_REMOTE_PORT + instance if remote_port is None else remote_port
         self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1)
         self.mav = self.link.mav
         self.transfer = missions.MissionTransfer(self.mav, self.link.send, self._on_mission_changed)
-        self.streams = telemetry.Streams(mavlink, self.t(now))
-        self.telemetry = telemetry.TelemetryBuilder(self.mav, self.commander, self.frame, self.params, 0.0)
-        self.setpoint_log = setpoint_log  # path: arrival times of accepted setpoints, written at close
-        self.setpoint_arrivals = []  # (wall ns, time_boot_ms the setpoint carried)
+        self.streams = telemetry.Streams(self.t(now))
+        self.telemetry = telemetry.TelemetryBuilder(self.mav, self.frame, self.params)
+        self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
         # Signing as PX4 does it with a key on its SD card: outgoing signed, incoming must be.
@@ -72,12 +68,29 @@ class SimulatedPx4:
                 self.link.close()
                 raise
         self.allowed_systems = frozenset(allowed_systems)  # empty: commands from anyone
+        self.commands = {
+            mavlink.MAV_CMD_DO_SET_MODE: self._cmd_set_mode,
+            mavlink.MAV_CMD_COMPONENT_ARM_DISARM: self._cmd_arm_disarm,
+            mavlink.MAV_CMD_NAV_TAKEOFF: self._cmd_takeoff,
+            mavlink.MAV_CMD_NAV_LAND: lambda msg, now: self.flight.request_mode('AUTO.LAND', now),
+            mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda msg, now: self.flight.request_mode('AUTO.RTL', now),
+            mavlink.MAV_CMD_MISSION_START: self._cmd_mission_start,
+            mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: self._cmd_set_message_interval,
+            mavlink.MAV_CMD_GET_MESSAGE_INTERVAL: self._cmd_get_message_interval,
+            mavlink.MAV_CMD_REQUEST_MESSAGE: self._cmd_request_message,
+            mavlink.MAV_CMD_GET_HOME_POSITION: self._cmd_request_message,
+            mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._cmd_request_message,
+            MAV_CMD_INJECT_FAILURE: self._cmd_inject_failure,
+        }
         self._register()
         self.running = False
 
     def t(self, now=None):
         """Seconds since boot: the time base of every pure module."""
         return (self.clock() if now is None else now) - self.boot_s
+
+    def status(self):
+        return self.flight.status(self.t())
 
     # -- receive ---------------------------------------------------------------------------
 
@@ -136,90 +149,88 @@ class SimulatedPx4:
             self.counters['ignored_other_system'] += 1
             return
         main, sub = (msg.custom_mode >> 16) & 0xFF, (msg.custom_mode >> 24) & 0xFF
-        result = self.commander.request_base_mode(msg.base_mode, main, sub, self.t())
-        self._ack(msg, CMD_DO_SET_MODE, result)  # PX4 answers the SET_MODE message as DO_SET_MODE
-        self._flush_events()
+        result = self.flight.request_base_mode(msg.base_mode, main, sub, self.t())
+        # PX4 answers the SET_MODE message as DO_SET_MODE
+        self._ack(msg, mavlink.MAV_CMD_DO_SET_MODE, result)
+        self._say_events()
 
     def _on_command(self, msg):
         if not self._for_me(msg):
             return
-        cmd = msg.command
-        if cmd == CMD_DO_SET_MODE:
+        if msg.command == mavlink.MAV_CMD_DO_SET_MODE:
             # PX4's MAVLink module acknowledges at once, then the commander gives its own result
-            self._ack(msg, cmd, cmdr.ACCEPTED)
-        result = self._command_result(msg)
-        self._ack(msg, cmd, result)
-        self._flush_events()
+            self._ack(msg, msg.command, ACCEPTED)
+        handler = self.commands.get(msg.command)
+        result = handler(msg, self.t()) if handler else mavlink.MAV_RESULT_UNSUPPORTED
+        self._ack(msg, msg.command, result)
+        self._say_events()
 
-    def _command_result(self, msg):
-        c, now = self.commander, self.t()
-        cmd, p1, p2 = msg.command, msg.param1, msg.param2
-        is_int = msg.get_type() == 'COMMAND_INT'
-        if cmd == CMD_DO_SET_MODE:
-            if not all(map(math.isfinite, (p1, p2, msg.param3))):
-                return cmdr.DENIED
-            return c.request_base_mode(int(p1), p2, msg.param3, now)
-        if cmd == CMD_COMPONENT_ARM_DISARM:
-            if p1 not in (0.0, 1.0):
-                return cmdr.DENIED
-            return c.request_arming(p1 == 1.0, p2 == cmdr.FORCE_MAGIC, now)
-        if cmd == CMD_NAV_TAKEOFF:
-            altitude = msg.z if is_int else msg.param7
-            return c.takeoff(altitude, self.frame.alt0, now)
-        if cmd == CMD_NAV_LAND:
-            return c.request_mode('AUTO.LAND', now)
-        if cmd == CMD_NAV_RETURN_TO_LAUNCH:
-            return c.request_mode('AUTO.RTL', now)
-        if cmd == CMD_MISSION_START:
-            if not self.runner.items:
-                return cmdr.DENIED
-            first = int(p1) if math.isfinite(p1) and 0 <= p1 < len(self.runner.items) else 0
-            self.runner.set_current(first)
-            return c.request_mode('AUTO.MISSION', now)
-        if cmd == CMD_SET_MESSAGE_INTERVAL:
-            ok = math.isfinite(p1) and math.isfinite(p2) and self.streams.set_interval(p1, p2, now)
-            return cmdr.ACCEPTED if ok else cmdr.FAILED
-        if cmd == CMD_GET_MESSAGE_INTERVAL:
-            if not math.isfinite(p1):
-                return cmdr.DENIED
-            self.link.send(self.mav.message_interval_encode(int(p1) & 0xFFFF, self.streams.interval_us(p1)))
-            return cmdr.ACCEPTED
-        if cmd in (CMD_REQUEST_MESSAGE, CMD_GET_HOME_POSITION, CMD_REQUEST_AUTOPILOT_CAPABILITIES):
-            msg_id = {CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
-                      CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION}.get(cmd, p1)
-            name = self.streams.names_by_id.get(int(msg_id)) if math.isfinite(msg_id) else None
-            reply = self.telemetry.build(name, now) if name else None
-            if reply is None:
-                return cmdr.FAILED
-            self.link.send(reply)
-            return cmdr.ACCEPTED
-        if cmd == CMD_INJECT_FAILURE:
-            if not self.params['SYS_FAILURE_EN']:
-                return cmdr.DENIED  # PX4: failure injection is off unless SYS_FAILURE_EN=1
-            self.commander.inject_failure('unit %d' % int(p1), int(p2) != FAILURE_TYPE_OK)
-            return cmdr.ACCEPTED
-        return cmdr.UNSUPPORTED
+    # -- commands: handler(msg, now_s) -> MAV_RESULT ------------------------------------------
+
+    def _cmd_set_mode(self, msg, now):
+        if not all(map(math.isfinite, (msg.param1, msg.param2, msg.param3))):
+            return DENIED
+        return self.flight.request_base_mode(int(msg.param1), msg.param2, msg.param3, now)
+
+    def _cmd_arm_disarm(self, msg, now):
+        if msg.param1 not in (0.0, 1.0):
+            return DENIED
+        return self.flight.request_arming(msg.param1 == 1.0, msg.param2 == ARM_DISARM_FORCE_MAGIC, now)
+
+    def _cmd_takeoff(self, msg, now):
+        altitude = msg.z if msg.get_type() == 'COMMAND_INT' else msg.param7
+        return self.flight.takeoff(altitude, self.frame.alt0, now)
+
+    def _cmd_mission_start(self, msg, now):
+        first = int(msg.param1) if math.isfinite(msg.param1) and msg.param1 >= 0 else 0
+        return self.flight.start_mission(first, now)
+
+    def _cmd_set_message_interval(self, msg, now):
+        ok = math.isfinite(msg.param1) and math.isfinite(msg.param2) and \
+            self.streams.set_interval(msg.param1, msg.param2, now)
+        return ACCEPTED if ok else FAILED
+
+    def _cmd_get_message_interval(self, msg, now):
+        if not math.isfinite(msg.param1):
+            return DENIED
+        self.link.send(self.mav.message_interval_encode(int(msg.param1) & 0xFFFF, self.streams.interval_us(msg.param1)))
+        return ACCEPTED
+
+    def _cmd_request_message(self, msg, now):
+        msg_id = REQUESTED_BY_COMMAND.get(msg.command, msg.param1)
+        name = self.streams.names_by_id.get(int(msg_id)) if math.isfinite(msg_id) else None
+        reply = self.telemetry.build(name, self.flight.status(now), now) if name else None
+        if reply is None:
+            return FAILED
+        self.link.send(reply)
+        return ACCEPTED
+
+    def _cmd_inject_failure(self, msg, now):
+        if not self.params['SYS_FAILURE_EN']:
+            return DENIED  # PX4: failure injection is off unless SYS_FAILURE_EN=1
+        self.flight.inject_failure('unit %d' % int(msg.param1), int(msg.param2) != FAILURE_TYPE_OK)
+        return ACCEPTED
+
+    # -- setpoints, parameters, signing, timesync, missions ------------------------------------
 
     def _on_setpoint(self, msg):
         if not self._for_me(msg):
             return
         try:
-            sp = cmdr.offboard_setpoint(msg.coordinate_frame, msg.type_mask, (msg.x, msg.y, msg.z),
-                                        (msg.vx, msg.vy, msg.vz), (msg.afx, msg.afy, msg.afz),
-                                        msg.yaw, msg.yaw_rate, self.vehicle.yaw)
-        except cmdr.SetpointRejected as err:
+            sp = offboard_input.from_message(msg, self.flight.vehicle.yaw)
+        except offboard_input.SetpointRejected as err:
             self.counters['setpoints_rejected'] += 1
             if self.counters['setpoints_rejected'] in (1, 10, 100, 1000):
                 log.warning('setpoint rejected (%d so far): %s', self.counters['setpoints_rejected'], err)
             return
         self.counters['setpoints_accepted'] += 1
-        if self.setpoint_log:
-            self.setpoint_arrivals.append((time.time_ns(), msg.time_boot_ms))
-        self.commander.on_offboard_setpoint(sp, self.t())
+        for hook in self.on_setpoint_accepted:
+            hook(msg)
+        self.flight.on_offboard_setpoint(sp, self.t())
 
     def _param_value(self, name):
         d = self.params.definition(name)
-        return self.mav.param_value_encode(name.encode('ascii'), sim_params.encode_value(d.type, self.params[name]),
+        return self.mav.param_value_encode(name.encode('ascii'), param_codec.encode(d.type, self.params[name]),
                                            d.type, len(self.params), self.params.index(name))
 
     def _on_param_request_list(self, msg):
@@ -240,13 +251,13 @@ class SimulatedPx4:
             return
         name = msg.param_id
         if name not in self.params.names:
-            self._text(cmdr.SEV_WARNING, 'Parameter %s unknown' % name)
+            self._text(mavlink.MAV_SEVERITY_WARNING, 'Parameter %s unknown' % name)
             return
         d = self.params.definition(name)
         try:
-            self.params.set(name, sim_params.decode_value(d.type, msg.param_value))
+            self.params.set(name, param_codec.decode(d.type, msg.param_value))
         except sim_params.ParamRejected as err:
-            self._text(cmdr.SEV_WARNING, str(err))
+            self._text(mavlink.MAV_SEVERITY_WARNING, str(err))
         self.link.send(self._param_value(name))  # the value in force, changed or not
 
     def _on_setup_signing(self, msg):
@@ -271,14 +282,18 @@ class SimulatedPx4:
         if msg.tc1 == 0:
             self.link.send(self.mav.timesync_encode(int(self.clock() * 1e9), msg.ts1))
 
+    def _on_timesync(self, msg):
+        if msg.tc1 == 0:
+            self.link.send(self.mav.timesync_encode(int(self.clock() * 1e9), msg.ts1))
+
     def _set_current(self, seq):
-        if self.runner.set_current(seq):
-            self.link.send(self.telemetry.build('MISSION_CURRENT', self.t()))
+        if self.flight.set_mission_current(seq):
+            self.link.send(self.telemetry.build('MISSION_CURRENT', self.status(), self.t()))
 
     def _on_mission_changed(self, mission_type):
         if mission_type == missions.MISSION_TYPE_MISSION:
-            self.commander.set_mission(self.transfer.mission())
-            self._flush_events()
+            self.flight.load_mission(self.transfer.mission())
+            self._say_events()
 
     # -- send ------------------------------------------------------------------------------
 
@@ -286,34 +301,37 @@ class SimulatedPx4:
         log.info('%s', text)
         self.link.send(self.telemetry.statustext(severity, text))
 
-    def _flush_events(self):
-        events, self.commander.events = self.commander.events, []
+    def _say_events(self):
+        """What the flight stack said, on the link."""
+        events = self.flight.take_events()
+        if not events:
+            return
         now = self.t()
+        status = self.flight.status(now)
         for event in events:
-            kind = event[0]
-            if kind == 'mode':
-                log.info('mode %s%s, %s', self.commander.nav_mode,
-                         ' (failsafe)' if self.commander.failsafe else '',
-                         'armed' if self.commander.armed else 'disarmed')
-                self.link.send(self.telemetry.current_mode())
-            elif kind == 'text':
-                self._text(event[1], event[2])
-            elif kind == 'mission_current':
-                self.link.send(self.telemetry.build('MISSION_CURRENT', now))
-            elif kind == 'item_reached':
-                self.link.send(self.mav.mission_item_reached_encode(event[1]))
+            if isinstance(event, ev.ModeChanged):
+                log.info('mode %s%s, %s', status.nav_mode, ' (failsafe)' if status.failsafe else '',
+                         'armed' if status.armed else 'disarmed')
+                self.link.send(self.telemetry.current_mode(status))
+            elif isinstance(event, ev.StatusText):
+                self._text(event.severity, event.text)
+            elif isinstance(event, ev.MissionCurrent):
+                self.link.send(self.telemetry.build('MISSION_CURRENT', status, now))
+            elif isinstance(event, ev.ItemReached):
+                self.link.send(self.mav.mission_item_reached_encode(event.seq))
 
     def step(self, dt):
         now = self.t()
-        self.commander.tick(now, dt)
+        self.flight.step(now, dt)
         self.transfer.tick(now)
-        if not self.telemetry.home_set and self.commander.ready(now):
-            self.telemetry.home_set = True
-        self._flush_events()
-        for name in self.streams.due(now):
-            msg = self.telemetry.build(name, now)
-            if msg is not None:
-                self.link.send(msg)
+        self._say_events()
+        due = self.streams.due(now)
+        if due:
+            status = self.flight.status(now)
+            for name in due:
+                msg = self.telemetry.build(name, status, now)
+                if msg is not None:
+                    self.link.send(msg)
 
     # -- the loop --------------------------------------------------------------------------
 
@@ -344,6 +362,3 @@ class SimulatedPx4:
         log.info('link: %s; vehicle: %s', ', '.join('%s %d' % kv for kv in sorted(self.link.stats.items())),
                  ', '.join('%s %d' % kv for kv in sorted(self.counters.items())))
         self.link.close()
-        if self.setpoint_log:
-            with open(self.setpoint_log, 'w') as out:
-                out.write(''.join('%d %d\n' % row for row in self.setpoint_arrivals))

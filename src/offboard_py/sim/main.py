@@ -9,11 +9,27 @@ import logging
 import os
 import signal
 import sys
+import time
 
 from offboard_py.signing import SigningKeyError
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.params import ParamRejected
+
+
+class SetpointLog:
+    """For the benchmark: the arrival time (ns) and time_boot_ms of each accepted setpoint,
+    kept in memory and written at exit, so the receive path only appends a pair."""
+
+    def __init__(self, path):
+        self.path, self.rows = path, []
+
+    def record(self, msg):
+        self.rows.append((time.time_ns(), msg.time_boot_ms))
+
+    def write(self):
+        with open(self.path, 'w') as out:
+            out.write(''.join('%d %d\n' % row for row in self.rows))
 
 
 def _home(text):
@@ -96,8 +112,6 @@ def main(argv=None):
         sim = SimulatedPx4(instance=args.instance, home=home, bind_host=args.bind,
                            local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
                            ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate,
-                           setpoint_log=os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance)
-                           if args.setpoint_log else None,
                            signing_key_file=args.signing_key, allowed_systems=args.allow_sysid)
     except (ParamRejected, SigningKeyError) as err:
         logging.error('%s', err)
@@ -105,6 +119,11 @@ def main(argv=None):
     except OSError as err:
         logging.error('%s', err)
         return 1
+
+    setpoint_log = SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance)) \
+        if args.setpoint_log else None
+    if setpoint_log:
+        sim.on_setpoint_accepted.append(setpoint_log.record)
 
     def stop(_signum, _frame):
         sim.stop()
@@ -114,4 +133,6 @@ def main(argv=None):
         sim.run()
     finally:
         sim.close()
+        if setpoint_log:
+            setpoint_log.write()
     return 0

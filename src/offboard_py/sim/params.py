@@ -2,20 +2,19 @@
 
 Defaults are PX4's for a multicopter, except COM_OF_LOSS_T: 0.5 s, the figure of the
 tutorial this project ports (PX4 1.12+ ships 1.0; override with COM_OF_LOSS_T=1.0).
-PX4 sends INT32 parameters bytewise in PARAM_VALUE's float field; so do we.
+INT32 parameters travel bytewise in PARAM_VALUE's float field, as on PX4 (offboard_py.param_codec).
 A change takes effect at once: the other modules read values here every time.
 """
 
 import math
-import struct
 from collections import namedtuple
 
-MAV_PARAM_TYPE_INT32 = 6
-MAV_PARAM_TYPE_REAL32 = 9
+from offboard_py import param_codec
+from offboard_py.dialect import mavlink
 
 Param = namedtuple('Param', 'name type default minimum maximum')
 
-_INT, _FLOAT = MAV_PARAM_TYPE_INT32, MAV_PARAM_TYPE_REAL32
+_INT, _FLOAT = mavlink.MAV_PARAM_TYPE_INT32, mavlink.MAV_PARAM_TYPE_REAL32
 DEFINITIONS = (
     Param('MAV_TYPE', _INT, 2, 0, 43),
     Param('MAV_SYS_ID', _INT, 1, 1, 250),
@@ -49,27 +48,12 @@ DEFINITIONS = (
     Param('MPC_Z_P', _FLOAT, 1.0, 0.1, 1.5),
     Param('MPC_XY_VEL_P_ACC', _FLOAT, 1.8, 1.2, 5.0),
     Param('MPC_Z_VEL_P_ACC', _FLOAT, 4.0, 2.0, 15.0),
-    Param('MPC_YAWRAUTO_MAX', _FLOAT, 45.0, 0.0, 360.0),
     Param('SYS_FAILURE_EN', _INT, 0, 0, 1),
 )
 
 
 class ParamRejected(ValueError):
     """A set that PX4 would refuse: unknown name, wrong value. The message says why."""
-
-
-def encode_value(param_type, value):
-    """The float that goes into PARAM_VALUE.param_value (INT32 bytewise, as PX4)."""
-    if param_type == MAV_PARAM_TYPE_INT32:
-        return struct.unpack('<f', struct.pack('<i', int(value)))[0]
-    return float(value)
-
-
-def decode_value(param_type, wire_value):
-    """The value a PARAM_SET carries for a parameter of `param_type`."""
-    if param_type == MAV_PARAM_TYPE_INT32:
-        return struct.unpack('<i', struct.pack('<f', wire_value))[0]
-    return float(wire_value)
 
 
 class ParamStore:
@@ -102,7 +86,7 @@ class ParamStore:
             raise ParamRejected('unknown parameter %r' % (name,))
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ParamRejected('%s: %r is not a finite number' % (name, value))
-        if p.type == MAV_PARAM_TYPE_INT32:
+        if param_codec.is_integer(p.type):
             if value != int(value):
                 raise ParamRejected('%s is an integer parameter, got %r' % (name, value))
             value = int(value)

@@ -3,11 +3,14 @@
 `Streams` keeps one interval per message id (PX4 v1.12 onboard rates by default) and says
 which are due; MAV_CMD_SET_MESSAGE_INTERVAL changes an interval, 0 restores the default,
 -1 stops a stream. HEARTBEAT is fixed at 1 Hz, as on PX4 (setting it answers FAILED).
-`build(name, ...)` makes each message from the vehicle and commander state.
+`TelemetryBuilder.build(name, status, now_s)` makes each message from the flight's read-only
+Status (sim.flight); it never sees the commander or the vehicle model.
 """
 
 import math
 import time
+
+from offboard_py.dialect import mavlink
 
 # Onboard link rates (Hz) of PX4 v1.12
 DEFAULT_RATES_HZ = {
@@ -26,22 +29,32 @@ FIXED_RATE = frozenset(('HEARTBEAT',))
 # One-shot messages that MAV_CMD_REQUEST_MESSAGE can ask for besides the streams
 ON_REQUEST = frozenset(('AUTOPILOT_VERSION',))
 
-MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4 = 2, 12
-LANDED_UNDEFINED, LANDED_ON_GROUND, LANDED_IN_AIR, LANDED_TAKEOFF, LANDED_LANDING = 0, 1, 2, 3, 4
-# MAV_PROTOCOL_CAPABILITY: mission float/int, param float, command int, set attitude/position
-# targets (local and global), MAVLink 2, fence and rally missions
-CAPABILITIES = 1 | 2 | 4 | 8 | 64 | 128 | 256 | 8192 | 16384 | 32768
+# MAV_PROTOCOL_CAPABILITY bits we announce
+CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+                | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+                | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY)
 PX4_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # v1.15.0 release
 # MAV_STANDARD_MODE for CURRENT_MODE
-STANDARD_MODES = {'POSCTL': 1, 'ALTCTL': 4, 'AUTO.RTL': 5, 'AUTO.MISSION': 6, 'AUTO.LAND': 7, 'AUTO.TAKEOFF': 8}
+STANDARD_MODES = {'POSCTL': mavlink.MAV_STANDARD_MODE_POSITION_HOLD, 'ALTCTL': mavlink.MAV_STANDARD_MODE_ALTITUDE_HOLD,
+                  'AUTO.RTL': mavlink.MAV_STANDARD_MODE_RETURN_HOME, 'AUTO.MISSION': mavlink.MAV_STANDARD_MODE_MISSION,
+                  'AUTO.LAND': mavlink.MAV_STANDARD_MODE_LAND, 'AUTO.TAKEOFF': mavlink.MAV_STANDARD_MODE_TAKEOFF}
+# What SYS_STATUS reports present, enabled and healthy
+SENSORS = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+           | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+           | mavlink.MAV_SYS_STATUS_SENSOR_GPS)
+HIGHRES_IMU_ALL_FIELDS = 0x1FFF  # fields_updated: every one of the 13 fields is fresh
 
 
 class Streams:
-    def __init__(self, mavlink_module, now_s):
-        self._ids = {name: getattr(mavlink_module, 'MAVLINK_MSG_ID_' + name) for name in DEFAULT_RATES_HZ}
+    def __init__(self, now_s):
+        self._ids = {name: getattr(mavlink, 'MAVLINK_MSG_ID_' + name) for name in DEFAULT_RATES_HZ}
         self.names_by_id = {v: k for k, v in self._ids.items()}
         for name in ON_REQUEST:
-            self.names_by_id[getattr(mavlink_module, 'MAVLINK_MSG_ID_' + name)] = name
+            self.names_by_id[getattr(mavlink, 'MAVLINK_MSG_ID_' + name)] = name
         self.interval_s = {name: 1.0 / hz for name, hz in DEFAULT_RATES_HZ.items()}
         self.next_s = {name: now_s for name in DEFAULT_RATES_HZ}
 
@@ -78,102 +91,84 @@ class Streams:
         return out
 
 
-def landed_state(commander):
-    if commander.vehicle.landed:
-        return LANDED_ON_GROUND
-    mode = commander.nav_mode
-    if mode == 'AUTO.TAKEOFF':
-        return LANDED_TAKEOFF
-    if mode == 'AUTO.LAND' or (mode == 'AUTO.RTL' and commander.rtl_phase == 'land'):
-        return LANDED_LANDING
-    return LANDED_IN_AIR
-
-
 def _pressure_hpa(alt_m):
     return 1013.25 * (1.0 - 2.25577e-5 * alt_m) ** 5.25588
 
 
 class TelemetryBuilder:
-    """Builds the autopilot's messages with `mav` (a pymavlink MAVLink codec)."""
+    """Builds the autopilot's messages with `mav` (a pymavlink codec) from a flight Status."""
 
-    def __init__(self, mav, commander, frame, params, boot_s):
-        self.mav, self.commander, self.frame, self.params = mav, commander, frame, params
+    def __init__(self, mav, frame, params, boot_s=0.0):
+        self.mav, self.frame, self.params = mav, frame, params
         self.boot_s = boot_s
-        self.home_set = False
 
     def time_boot_ms(self, now_s):
         return int((now_s - self.boot_s) * 1000) & 0xFFFFFFFF
 
-    def build(self, name, now_s):
-        return getattr(self, '_' + name.lower())(now_s)
+    def time_usec(self, now_s):
+        return int((now_s - self.boot_s) * 1e6)
 
-    def _heartbeat(self, now_s):
-        c = self.commander
-        return self.mav.heartbeat_encode(self.params['MAV_TYPE'], MAV_AUTOPILOT_PX4, c.base_mode(),
-                                         c.custom_mode(), c.system_status(), 3)
+    def build(self, name, status, now_s):
+        """The message `name` for now, or None when there is nothing to say (no home yet)."""
+        return getattr(self, '_' + name.lower())(status, now_s)
 
-    def current_mode(self):
-        c = self.commander
-        return self.mav.current_mode_encode(STANDARD_MODES.get(c.nav_mode, 0), c.custom_mode(),
-                                            c.intended_custom_mode())
+    def _heartbeat(self, st, now_s):
+        return self.mav.heartbeat_encode(self.params['MAV_TYPE'], mavlink.MAV_AUTOPILOT_PX4, st.base_mode,
+                                         st.custom_mode, st.system_status, 3)
 
-    def _sys_status(self, now_s):
-        sensors = 0x1 | 0x2 | 0x4 | 0x8 | 0x20  # gyro, accel, mag, baro, gps
-        return self.mav.sys_status_encode(sensors, sensors, sensors, 200, 16200, -1, 100, 0, 0, 0, 0, 0, 0)
+    def current_mode(self, st):
+        return self.mav.current_mode_encode(STANDARD_MODES.get(st.nav_mode, mavlink.MAV_STANDARD_MODE_NON_STANDARD),
+                                            st.custom_mode, st.intended_custom_mode)
 
-    def _attitude_quaternion(self, now_s):
-        v = self.commander.vehicle
-        w, x, y, z = v.attitude()
-        return self.mav.attitude_quaternion_encode(self.time_boot_ms(now_s), w, x, y, z, 0.0, 0.0, v.yaw_rate,
+    def _sys_status(self, st, now_s):
+        return self.mav.sys_status_encode(SENSORS, SENSORS, SENSORS, 200, 16200, -1, 100, 0, 0, 0, 0, 0, 0)
+
+    def _attitude_quaternion(self, st, now_s):
+        w, x, y, z = st.attitude
+        return self.mav.attitude_quaternion_encode(self.time_boot_ms(now_s), w, x, y, z, 0.0, 0.0, st.yaw_rate,
                                                    [0.0, 0.0, 0.0, 0.0])
 
-    def _local_position_ned(self, now_s):
-        v = self.commander.vehicle
-        return self.mav.local_position_ned_encode(self.time_boot_ms(now_s), *v.position, *v.velocity)
+    def _local_position_ned(self, st, now_s):
+        return self.mav.local_position_ned_encode(self.time_boot_ms(now_s), *st.position, *st.velocity)
 
-    def _global_position_int(self, now_s):
-        v = self.commander.vehicle
-        lat, lon, alt = self.frame.to_global(*v.position)
-        heading = int(round(math.degrees(v.yaw) * 100.0)) % 36000
+    def _global_position_int(self, st, now_s):
+        lat, lon, alt = self.frame.to_global(*st.position)
+        heading = int(round(math.degrees(st.yaw) * 100.0)) % 36000
         return self.mav.global_position_int_encode(
             self.time_boot_ms(now_s), int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
-            int(round(v.height() * 1000)), *(int(round(c * 100)) for c in v.velocity), heading)
+            int(round(st.height * 1000)), *(int(round(c * 100)) for c in st.velocity), heading)
 
-    def _altitude(self, now_s):
-        v = self.commander.vehicle
-        amsl = self.frame.alt0 + v.height()
-        return self.mav.altitude_encode(int((now_s - self.boot_s) * 1e6), amsl, amsl, v.height(), v.height(),
-                                        float('nan'), v.height())
+    def _altitude(self, st, now_s):
+        amsl = self.frame.alt0 + st.height
+        return self.mav.altitude_encode(self.time_usec(now_s), amsl, amsl, st.height, st.height, float('nan'),
+                                        st.height)
 
-    def _extended_sys_state(self, now_s):
-        return self.mav.extended_sys_state_encode(0, landed_state(self.commander))
+    def _extended_sys_state(self, st, now_s):
+        return self.mav.extended_sys_state_encode(mavlink.MAV_VTOL_STATE_UNDEFINED, st.landed_state)
 
-    def _home_position(self, now_s):
-        if not self.home_set:
+    def _home_position(self, st, now_s):
+        if not st.ready:  # PX4 sets home once the estimator is good
             return None
         f = self.frame
         return self.mav.home_position_encode(int(round(f.lat0 * 1e7)), int(round(f.lon0 * 1e7)),
                                              int(round(f.alt0 * 1000)), 0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0],
                                              0.0, 0.0, 0.0, int(time.time() * 1e6))
 
-    def _highres_imu(self, now_s):
-        v = self.commander.vehicle
-        ax, ay, az = v.specific_force_body()
-        c, s = math.cos(v.yaw), math.sin(v.yaw)
+    def _highres_imu(self, st, now_s):
+        ax, ay, az = st.specific_force
+        c, s = math.cos(st.yaw), math.sin(st.yaw)
         mag_n, mag_d = 0.21, 0.43  # gauss, roughly central Europe
-        alt = self.frame.alt0 + v.height()
-        return self.mav.highres_imu_encode(int((now_s - self.boot_s) * 1e6), ax, ay, az, 0.0, 0.0, v.yaw_rate,
+        alt = self.frame.alt0 + st.height
+        return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, 0.0, 0.0, st.yaw_rate,
                                            c * mag_n, -s * mag_n, mag_d, _pressure_hpa(alt), 0.0, alt, 25.0,
-                                           0x1FFF)
+                                           HIGHRES_IMU_ALL_FIELDS)
 
-    def _mission_current(self, now_s):
-        runner = self.commander.runner
-        return self.mav.mission_current_encode(runner.seq, len(runner.items))
+    def _mission_current(self, st, now_s):
+        return self.mav.mission_current_encode(st.mission_seq, st.mission_count)
 
-    def _autopilot_version(self, now_s):
+    def _autopilot_version(self, st, now_s):
         return self.mav.autopilot_version_encode(CAPABILITIES, PX4_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
                                                  0x26AC, 0x11, self.mav.srcSystem)
 
     def statustext(self, severity, text):
         return self.mav.statustext_encode(severity, text.encode('ascii', 'replace')[:50])
-

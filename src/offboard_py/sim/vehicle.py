@@ -101,6 +101,7 @@ class Vehicle:
         self.ground_contact = position[2] >= 0.0
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
+        self._attitude = None  # cached for the current step: telemetry asks more often than we step
 
     # -- commands from the commander -----------------------------------------------------
 
@@ -185,6 +186,7 @@ class Vehicle:
             self.position[i] += self.velocity[i] * dt
         self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
         self._ground(now_s)
+        self._attitude = None
 
     def _ground(self, now_s):
         if self.position[2] >= 0.0 and (self.velocity[2] >= 0.0 or self.acceleration[2] >= 0.0):
@@ -205,7 +207,9 @@ class Vehicle:
 
     def attitude(self):
         """(w, x, y, z) NED/FRD quaternion."""
-        return quaternion_from_thrust(self.acceleration, self.yaw)
+        if self._attitude is None:
+            self._attitude = quaternion_from_thrust(self.acceleration, self.yaw)
+        return self._attitude
 
     def specific_force_body(self):
         """What an accelerometer reads (m/s^2, FRD): acceleration minus gravity, in body axes."""

@@ -1,0 +1,38 @@
+"""What the simulated PX4's pure modules have to say to the world, as typed events.
+
+The commander and the navigator append these to their `events` lists; the flight stack
+reacts to some (arming starts the motors, a mode change moves the navigator) and the
+autopilot turns them into MAVLink (CURRENT_MODE, STATUSTEXT, MISSION_CURRENT,
+MISSION_ITEM_REACHED). Nothing here sends anything.
+"""
+
+from typing import NamedTuple
+
+
+class ModeChanged(NamedTuple):
+    """The mode flying now (nav_mode) changed; `failsafe` when the commander chose it."""
+    mode: str
+    failsafe: bool
+
+
+class ArmingChanged(NamedTuple):
+    armed: bool
+    reason: str
+
+
+class StatusText(NamedTuple):
+    """A message for the pilot, with its MAV_SEVERITY."""
+    severity: int
+    text: str
+
+
+class TakeoffComplete(NamedTuple):
+    """AUTO.TAKEOFF reached its altitude: the commander switches to AUTO.LOITER."""
+
+
+class MissionCurrent(NamedTuple):
+    seq: int
+
+
+class ItemReached(NamedTuple):
+    seq: int

@@ -1,0 +1,168 @@
+"""The flight stack of the simulated PX4: commander, navigator, offboard setpoint and vehicle model, stepped together.
+
+`Flight.step(now_s, dt)` is one cycle of PX4's loop: the commander's checks, the setpoint of
+the mode flying now (the latest offboard setpoint in OFFBOARD, else the navigator's), the
+vehicle model, then the land detector's word back to the commander. Events from the
+commander and the navigator are routed here at once (arming starts the motors, a mode
+change moves the navigator) and queued in `events` for the autopilot to say on the link.
+`status()` is the read-only picture telemetry is built from.
+
+Pure: time is passed in; no MAVLink I/O, no clock.
+"""
+
+from typing import NamedTuple
+
+from offboard_py import px4_modes
+from offboard_py.dialect import mavlink
+from offboard_py.sim import events as ev
+from offboard_py.sim.commander import Commander
+from offboard_py.sim.navigator import Navigator
+from offboard_py.sim.vehicle import Vehicle
+
+
+class Status(NamedTuple):
+    """What telemetry may know of the flight (PX4's vehicle_status, land detector, local position ...)."""
+    nav_mode: str
+    user_mode: str
+    armed: bool
+    failsafe: bool
+    system_status: int
+    ready: bool
+    landed_state: int
+    position: tuple       # local NED, m
+    velocity: tuple       # local NED, m/s
+    yaw: float            # rad from north
+    yaw_rate: float       # rad/s
+    attitude: tuple       # (w, x, y, z) NED/FRD
+    specific_force: tuple  # FRD, m/s^2: what an accelerometer reads
+    mission_seq: int
+    mission_count: int
+
+    @property
+    def custom_mode(self):
+        return px4_modes.encode(self.nav_mode)
+
+    @property
+    def intended_custom_mode(self):
+        return px4_modes.encode(self.user_mode)
+
+    @property
+    def base_mode(self):
+        return px4_modes.base_mode_flags(self.nav_mode, self.armed)
+
+    @property
+    def height(self):
+        return -self.position[2]
+
+
+class Flight:
+    def __init__(self, params, frame, now_s, ready_delay_s=5.0, rc=False):
+        self.params = params
+        self.vehicle = Vehicle(params)
+        self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
+        self.navigator = Navigator(params, frame, self.vehicle)
+        self.offboard_sp = None
+        self.events = []
+
+    # -- requests (each returns a MAV_RESULT) --------------------------------------------------
+
+    def request_mode(self, mode, now_s):
+        return self._routed(self.commander.request_mode(mode, now_s), now_s)
+
+    def request_base_mode(self, base_mode, main_mode, sub_mode, now_s):
+        return self._routed(self.commander.request_base_mode(base_mode, main_mode, sub_mode, now_s), now_s)
+
+    def request_arming(self, arm, force, now_s):
+        return self._routed(self.commander.request_arming(arm, force, now_s), now_s)
+
+    def takeoff(self, altitude_amsl, home_alt, now_s):
+        """NAV_TAKEOFF: AUTO.TAKEOFF to the given AMSL altitude, or MIS_TAKEOFF_ALT."""
+        height = self.navigator.takeoff_height(altitude_amsl, home_alt)
+        result = self.request_mode('AUTO.TAKEOFF', now_s)
+        if result == mavlink.MAV_RESULT_ACCEPTED:
+            self.navigator.set_takeoff_height(height)
+        return self._routed(result, now_s)
+
+    def start_mission(self, first_seq, now_s):
+        """MAV_CMD_MISSION_START: from item first_seq (0 if out of range) in AUTO.MISSION."""
+        if not self.navigator.mission.items:
+            return mavlink.MAV_RESULT_DENIED
+        if not self.navigator.mission.set_current(first_seq):
+            self.navigator.mission.set_current(0)
+        return self.request_mode('AUTO.MISSION', now_s)
+
+    def set_mission_current(self, seq):
+        return self.navigator.mission.set_current(seq)
+
+    def load_mission(self, items):
+        self.navigator.load_mission(items, self.commander.nav_mode == 'AUTO.MISSION')
+        self.commander.has_mission = bool(items)
+        self._route(None)
+
+    def inject_failure(self, name, failed):
+        self.commander.inject_failure(name, failed)
+
+    def on_offboard_setpoint(self, sp, now_s):
+        self.offboard_sp = sp
+        self.commander.on_offboard_setpoint(now_s)
+
+    # -- the cycle -----------------------------------------------------------------------------
+
+    def step(self, now_s, dt):
+        c, v = self.commander, self.vehicle
+        c.check(now_s)
+        self._route(now_s)
+        if c.nav_mode == 'OFFBOARD' and self.offboard_sp is not None:
+            sp = self.offboard_sp
+        else:
+            sp = self.navigator.setpoint(c.nav_mode, c.armed, now_s)
+            self._route(now_s)
+        v.step(dt, sp, now_s)
+        c.landed = v.landed
+        c.check_landing(now_s)
+        self._route(now_s)
+
+    def _routed(self, result, now_s):
+        self._route(now_s)
+        return result
+
+    def _route(self, now_s):
+        """Act on what the commander and the navigator said, and queue it for the link."""
+        c, n = self.commander, self.navigator
+        while c.events or n.events:
+            source = c.events if c.events else n.events
+            event = source.pop(0)
+            if isinstance(event, ev.ModeChanged):
+                n.on_mode(event.mode)
+            elif isinstance(event, ev.ArmingChanged):
+                if event.armed:
+                    self.vehicle.start_motors(now_s)
+                    n.on_armed(c.nav_mode)
+                else:
+                    self.vehicle.stop_motors()
+            elif isinstance(event, ev.TakeoffComplete):
+                c.takeoff_complete()
+                continue
+            self.events.append(event)
+
+    def take_events(self):
+        events, self.events = self.events, []
+        return events
+
+    # -- what telemetry sees -----------------------------------------------------------------
+
+    def landed_state(self):
+        c, v = self.commander, self.vehicle
+        if v.landed:
+            return mavlink.MAV_LANDED_STATE_ON_GROUND
+        if c.nav_mode == 'AUTO.TAKEOFF':
+            return mavlink.MAV_LANDED_STATE_TAKEOFF
+        if self.navigator.landing(c.nav_mode):
+            return mavlink.MAV_LANDED_STATE_LANDING
+        return mavlink.MAV_LANDED_STATE_IN_AIR
+
+    def status(self, now_s):
+        c, v, m = self.commander, self.vehicle, self.navigator.mission
+        return Status(c.nav_mode, c.user_mode, c.armed, c.failsafe, c.system_status(), c.ready(now_s),
+                      self.landed_state(), tuple(v.position), tuple(v.velocity), v.yaw, v.yaw_rate, v.attitude(),
+                      v.specific_force_body(), m.seq, len(m.items))
