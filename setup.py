@@ -2,4 +2,6 @@
 from setuptools import setup
 from catkin_pkg.python_setup import generate_distutils_setup
 
-setup(**generate_distutils_setup(packages=['offboard_py', 'offboard_py.sim', 'offboard_py.bridge'], package_dir={'': 'src'}))
+setup(**generate_distutils_setup(
+    packages=['offboard_py', 'offboard_py.sim', 'offboard_py.bridge', 'offboard_py.testing'],
+    package_dir={'': 'src'}))

@@ -2,7 +2,6 @@
 """The bridge's mavros API: names, types and semantics, against the simulated PX4 and a silent FCU."""
 
 import math
-import socket
 import threading
 import time
 
@@ -11,10 +10,13 @@ import rostest
 from geometry_msgs.msg import PoseStamped, Quaternion
 from mavros_msgs.msg import HomePosition, PositionTarget, Waypoint, WaypointList
 from mavros_msgs.srv import ParamGet, ParamPull, ParamSet, ParamSetRequest, WaypointClear, WaypointPush
-from pymavlink.dialects.v20 import development as mavlink
 from sensor_msgs.msg import Imu, NavSatFix
 
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle, yaw_of
+from offboard_py import px4_modes
+from offboard_py.dialect import mavlink
+from offboard_py.testing.mavlink_listener import MavlinkListener
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, yaw_of
+from offboard_py.testing.typemask import POSITION_AND_YAW, VELOCITY_ONLY
 
 PKG = 'offboard_py'
 START = time.monotonic()
@@ -22,49 +24,30 @@ PX4_MODES = ('MANUAL', 'ALTCTL', 'POSCTL', 'ACRO', 'STABILIZED', 'RATTITUDE', 'O
              'AUTO.LOITER', 'AUTO.MISSION', 'AUTO.RTL', 'AUTO.LAND')
 
 
-class SilentFcu:
-    """A fake PX4 on UDP 14691: HEARTBEATs and what the test asks, never a COMMAND_ACK."""
+class SilentFcu(MavlinkListener):
+    """A fake PX4 for the silent bridge: HEARTBEATs and what the test asks, never a COMMAND_ACK."""
 
-    def __init__(self):
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(('127.0.0.1', 14691))
-        self.sock.settimeout(0.1)
-        self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
-        self.received = []
+    def __init__(self, port, bridge_port):
+        super().__init__(port, bridge_port)
         self.beating = True
-        self.running = True
-        threading.Thread(target=self._rx, daemon=True).start()
         threading.Thread(target=self._beat, daemon=True).start()
 
-    def send(self, msg):
-        self.sock.sendto(msg.pack(self.mav), ('127.0.0.1', 14690))
-
     def _beat(self):
+        hold_disarmed = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_AUTO_ENABLED
+                         | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED)
         while self.running:
             if self.beating:
-                self.send(self.mav.heartbeat_encode(2, 12, 1 | 4 | 8 | 16, 50593792, 3, 3))
+                self.send(self.mav.heartbeat_encode(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4,
+                                                    hold_disarmed, px4_modes.encode('AUTO.LOITER'),
+                                                    mavlink.MAV_STATE_STANDBY))
             time.sleep(0.5)
-
-    def _rx(self):
-        parser = mavlink.MAVLink(None)
-        parser.robust_parsing = True
-        while self.running:
-            try:
-                data, _ = self.sock.recvfrom(4096)
-            except socket.timeout:
-                continue
-            for msg in parser.parse_buffer(data) or []:
-                self.received.append(msg)
-
-    def of_type(self, name):
-        return [m for m in self.received if m.get_type() == name]
 
 
 class BridgeTest(OffboardTestCase):
 
     @classmethod
     def setUpClass(cls):
-        cls.fcu = SilentFcu()
+        cls.fcu = SilentFcu(rospy.get_param('~silent_fcu_port'), rospy.get_param('~silent_bridge_port'))
         cls.sim = Vehicle('mavros')
         cls.silent = Vehicle('silent/mavros')
 
@@ -76,7 +59,7 @@ class BridgeTest(OffboardTestCase):
         self.assertEqual(state.mode, 'AUTO.LOITER')
         self.assertTrue(state.guided, 'AUTO modes set GUIDED')
         self.assertFalse(state.armed)
-        self.assertEqual(state.system_status, 3)
+        self.assertEqual(state.system_status, mavlink.MAV_STATE_STANDBY)
 
     def test_02_mode_strings_for_px4_modes(self):
         self.wait_for_connected(self.sim, 15.0)
@@ -85,7 +68,8 @@ class BridgeTest(OffboardTestCase):
             self.wait_for_mode(self.sim, mode, 4.0)
         self.assertTrue(self.set_mode(self.sim, 'auto.loiter'), 'mode strings are upper-cased')
         self.wait_for_mode(self.sim, 'AUTO.LOITER', 4.0)
-        self.assertTrue(self.set_mode(self.sim, str((4 << 16) | (4 << 24))), 'a number is taken as custom_mode')
+        self.assertTrue(self.set_mode(self.sim, str(px4_modes.encode('AUTO.MISSION'))),
+                        'a number is taken as custom_mode')
         self.wait_for_mode(self.sim, 'AUTO.MISSION', 4.0)
         self.assertFalse(self.set_mode(self.sim, 'NOT_A_MODE'), 'unknown mode: mode_sent=false')
         self.set_mode(self.sim, 'AUTO.LOITER')
@@ -96,14 +80,15 @@ class BridgeTest(OffboardTestCase):
         self.set_mode(self.sim, 'OFFBOARD')
         self.wait_for_mode(self.sim, 'OFFBOARD', 4.0)
         refused = self.set_arm(self.sim, True)
-        self.assertEqual((refused.success, refused.result), (False, 1), 'no offboard signal: TEMPORARILY_REJECTED')
+        self.assertEqual((refused.success, refused.result), (False, mavlink.MAV_RESULT_TEMPORARILY_REJECTED),
+                         'no offboard signal: TEMPORARILY_REJECTED')
         self.set_mode(self.sim, 'AUTO.LOITER')
         self.wait_for_mode(self.sim, 'AUTO.LOITER', 4.0)
         armed = self.set_arm(self.sim, True)
-        self.assertEqual((armed.success, armed.result), (True, 0))
+        self.assertEqual((armed.success, armed.result), (True, mavlink.MAV_RESULT_ACCEPTED))
         self.wait_for_armed(self.sim, True, 3.0)
         disarmed = self.set_arm(self.sim, False)
-        self.assertEqual((disarmed.success, disarmed.result), (True, 0))
+        self.assertEqual((disarmed.success, disarmed.result), (True, mavlink.MAV_RESULT_ACCEPTED))
 
     def test_04_arming_timeout_and_busy_against_silent_fcu(self):
         self.wait_for_connected(self.silent, 10.0)
@@ -124,8 +109,9 @@ class BridgeTest(OffboardTestCase):
         answers = [r for r in results if not isinstance(r, Exception)]
         self.assertEqual(len(errors), 1, 'the second arming call must fail: %s' % results)
         self.assertEqual(len(answers), 1)
-        self.assertEqual((answers[0].success, answers[0].result), (False, 4), 'no ACK: success=false, result=4')
-        cmds = [m for m in self.fcu.of_type('COMMAND_LONG') if m.command == 400]
+        self.assertEqual((answers[0].success, answers[0].result), (False, mavlink.MAV_RESULT_FAILED),
+                         'no ACK: success=false, result=FAILED')
+        cmds = [m for m in self.fcu.of_type('COMMAND_LONG') if m.command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM]
         self.assertTrue(cmds and cmds[0].param1 == 1.0 and cmds[0].confirmation == 1)
 
     def setpoints_at_fcu_after(self, before):
@@ -151,7 +137,7 @@ class BridgeTest(OffboardTestCase):
         got = self.setpoints_at_fcu_after(before)
         self.assertEqual(len(got), 1, 'the NaN setpoint must not be sent')
         m = got[0]
-        self.assertEqual((m.coordinate_frame, m.type_mask), (1, 2552))
+        self.assertEqual((m.coordinate_frame, m.type_mask), (mavlink.MAV_FRAME_LOCAL_NED, POSITION_AND_YAW))
         self.assertEqual((round(m.x, 6), round(m.y, 6), round(m.z, 6)), (2.0, 1.0, -3.0))
         self.assertAlmostEqual(m.yaw, math.pi / 2, places=5)
 
@@ -161,12 +147,12 @@ class BridgeTest(OffboardTestCase):
         pub = rospy.Publisher('silent/mavros/setpoint_raw/local', PositionTarget, queue_size=10)
         self.wait_until(lambda: pub.get_num_connections() > 0 and log.sub.get_num_connections() > 0, 5.0,
                         'the bridge subscribing, and /rosout connected')
-        velocity_only = 1 | 2 | 4 | 64 | 128 | 256 | 1024 | 2048
+        velocity_only = VELOCITY_ONLY
         before = len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED'))
-        bad = PositionTarget(coordinate_frame=1, type_mask=velocity_only)
+        bad = PositionTarget(coordinate_frame=mavlink.MAV_FRAME_LOCAL_NED, type_mask=velocity_only)
         bad.velocity.z = float('nan')
         pub.publish(bad)
-        good = PositionTarget(coordinate_frame=1, type_mask=velocity_only)
+        good = PositionTarget(coordinate_frame=mavlink.MAV_FRAME_LOCAL_NED, type_mask=velocity_only)
         good.position.x = good.position.z = good.yaw = float('nan')  # ignored by the mask
         good.velocity.x = 1.0
         pub.publish(good)
@@ -222,8 +208,9 @@ class BridgeTest(OffboardTestCase):
         self.wait_until(lambda: lists, 10.0, 'a latched mission/waypoints (also when empty)')
         wps = []
         for i, (lat, lon) in enumerate(((47.3978, 8.5456), (47.3979, 8.5457), (47.3980, 8.5456))):
-            wp = Waypoint(frame=3, command=16 if i else 22, is_current=i == 0, autocontinue=True,
-                          x_lat=lat, y_long=lon, z_alt=5.0)
+            wp = Waypoint(frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                          command=mavlink.MAV_CMD_NAV_WAYPOINT if i else mavlink.MAV_CMD_NAV_TAKEOFF,
+                          is_current=i == 0, autocontinue=True, x_lat=lat, y_long=lon, z_alt=5.0)
             wps.append(wp)
         rospy.wait_for_service('mavros/mission/push', 5.0)
         res = rospy.ServiceProxy('mavros/mission/push', WaypointPush)(start_index=0, waypoints=wps)

@@ -4,39 +4,38 @@ state or pose published from frames mavros would drop (bad CRC, cut short, unkno
 another system, another component's HEARTBEAT, MAVLink 1 and 2 mixed). Afterwards it still commands the vehicle.
 """
 
-import os
 import random
 import socket
-import sys
 import time
 
 import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped
 from pymavlink.dialects.v10 import common as mavlink1
-from pymavlink.dialects.v20 import development as mavlink2
 
 from offboard_py import px4_modes
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), 'tools'))
-import mavlink_fuzz  # noqa: E402
+from offboard_py.dialect import mavlink as mavlink2
+from offboard_py.testing import mavlink_fuzz
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
-ARMED_OFFBOARD = (px4_modes.SAFETY_ARMED | px4_modes.CUSTOM_MODE_ENABLED, px4_modes.encode('OFFBOARD'))
+ARMED_OFFBOARD = (mavlink2.MAV_MODE_FLAG_SAFETY_ARMED | mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                  px4_modes.encode('OFFBOARD'))
+QUAD, PX4 = mavlink2.MAV_TYPE_QUADROTOR, mavlink2.MAV_AUTOPILOT_PX4
 
 
 def hostile_datagrams(rng, count, target):
     nan = float('nan')
     vehicle = mavlink2.MAVLink(None, srcSystem=target, srcComponent=1)
-    camera = mavlink2.MAVLink(None, srcSystem=target, srcComponent=100)
+    camera = mavlink2.MAVLink(None, srcSystem=target, srcComponent=mavlink2.MAV_COMP_ID_CAMERA)
     other = mavlink2.MAVLink(None, srcSystem=42, srcComponent=1)
     other_v1 = mavlink1.MAVLink(None, srcSystem=43, srcComponent=1)
     lies = [  # what the vehicle never said: armed in OFFBOARD, 50 m up, an ACK nobody asked for
-        lambda m: m.heartbeat_encode(2, 12, ARMED_OFFBOARD[0], ARMED_OFFBOARD[1], 4),
+        lambda m: m.heartbeat_encode(QUAD, PX4, ARMED_OFFBOARD[0], ARMED_OFFBOARD[1], mavlink2.MAV_STATE_ACTIVE),
         lambda m: m.local_position_ned_encode(1000, 0, 0, -50, 0, 0, 0),
-        lambda m: m.command_ack_encode(400, 0, 0, 0, 1, 240),
-        lambda m: m.extended_sys_state_encode(0, 2),
+        lambda m: m.command_ack_encode(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, mavlink2.MAV_RESULT_ACCEPTED,
+                                       0, 0, 1, 240),
+        lambda m: m.extended_sys_state_encode(mavlink2.MAV_VTOL_STATE_UNDEFINED, mavlink2.MAV_LANDED_STATE_IN_AIR),
     ]
     return mavlink_fuzz.hostile_datagrams(
         rng, count,
@@ -44,9 +43,10 @@ def hostile_datagrams(rng, count, target):
         # mavros takes data from any component of its target system, but the state only
         # from the autopilot's HEARTBEAT: the camera's heartbeat must not move the state
         ignorable=[lie(other).pack(other) for lie in lies]
-        + [m.heartbeat_encode(2, 12, ARMED_OFFBOARD[0], ARMED_OFFBOARD[1], 4).pack(m) for m in (camera, other_v1)],
+        + [m.heartbeat_encode(QUAD, PX4, ARMED_OFFBOARD[0], ARMED_OFFBOARD[1], mavlink2.MAV_STATE_ACTIVE).pack(m)
+           for m in (camera, other_v1)],
         refused=[other.local_position_ned_encode(1000, nan, nan, nan, nan, nan, nan).pack(other),
-                 camera.heartbeat_encode(255, 255, 255, 0xFFFFFFFF, 255).pack(camera)])
+                 camera.heartbeat_encode(255, 255, 255, 0xFFFFFFFF, 255).pack(camera)])  # out of every enum's range
 
 
 class BridgeFuzzTest(OffboardTestCase):

@@ -7,7 +7,7 @@ import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped
 
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
 
@@ -23,8 +23,7 @@ class LateFcuTest(OffboardTestCase):
         self.assertFalse(vehicle.state.connected, 'no vehicle yet: %s' % vehicle.describe())
         self.assertEqual(setpoints, [], 'nothing is streamed before the FCU is connected')
         self.wait_for_connected(vehicle, 20.0)
-        self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed, 60.0,
-                        'OFFBOARD and armed', [vehicle])
+        self.wait_for_offboard_and_armed(vehicle, 60.0)
         self.wait_for_altitude(vehicle, 2.0, 0.15, 30.0)
         self.assertTrue(any('Waiting for the FCU connection' in line for line in log.lines), log.lines)
 

@@ -14,7 +14,7 @@ import time
 import rospy
 import rostest
 
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
 HEARTBEAT_PERIOD_S = 1.0
@@ -33,45 +33,36 @@ class LinkCutTest(OffboardTestCase):
         self.assertEqual(reply, b'ok')
         return time.monotonic()
 
-    def states_since(self, start):
-        with self.vehicle.lock:
-            return [(t, s) for t, s in self.vehicle.states if t >= start]
-
-    def back_at_2m(self, what, timeout_s=40.0):
-        self.wait_until(lambda: self.vehicle.state.mode == 'OFFBOARD' and self.vehicle.state.armed, timeout_s,
-                        'OFFBOARD and armed again after %s' % what, [self.vehicle])
-        self.wait_for_altitude(self.vehicle, 2.0, 0.2, 30.0)
-
     def test_cuts_in_hover(self):
-        self.vehicle = vehicle = Vehicle('mavros')
+        vehicle = Vehicle('mavros')
         node_log = RosoutRecorder('/offb_node_py')
         loss_s = rospy.get_param('~offboard_loss_timeout')
         conn_timeout_s = rospy.get_param('~conn_timeout')
         self.wait_for_connected(vehicle, 30.0)
-        self.back_at_2m('start-up', 60.0)
+        self.wait_back_at_2m(vehicle, 'start-up', 60.0)
 
         # 1. setpoints cut for 2 s: failsafe after COM_OF_LOSS_T, then back to OFFBOARD by the node
         start = self.cut(2.0, 'to_fcu')
         self.wait_until(lambda: vehicle.state.mode != 'OFFBOARD', loss_s + HEARTBEAT_PERIOD_S + 2.0,
                         'leaving OFFBOARD without setpoints', [vehicle])
-        left = next(t for t, s in self.states_since(start) if s.mode != 'OFFBOARD')
+        left = next(t for t, s in vehicle.states_since(start) if s.mode != 'OFFBOARD')
         self.assertGreaterEqual(left - start, loss_s - 0.05, 'failsafe before COM_OF_LOSS_T')
         self.assertLessEqual(left - start, loss_s + HEARTBEAT_PERIOD_S + 0.6, 'failsafe late')
         self.assertIn(vehicle.state.mode, ('AUTO.RTL', 'AUTO.LAND', 'AUTO.LOITER'))
         rospy.loginfo('setpoints cut: %s after %.2f s', vehicle.state.mode, left - start)
-        self.assertTrue(all(s.connected for _, s in self.states_since(start)))
+        self.assertTrue(all(s.connected for _, s in vehicle.states_since(start)))
         requests_before = node_log.count('OFFBOARD enabled')
-        self.back_at_2m('a 2 s setpoint cut')
+        self.wait_back_at_2m(vehicle, 'a 2 s setpoint cut', 40.0)
         self.assertGreater(node_log.count('OFFBOARD enabled'), requests_before, 'the node did not ask again')
 
         # 2. both ways for 2 s, shorter than conn/timeout: never reported disconnected
         time.sleep(3.0)
         start = self.cut(2.0)
         time.sleep(2.0 + HEARTBEAT_PERIOD_S + 0.5)
-        seen = self.states_since(start)
+        seen = vehicle.states_since(start)
         self.assertTrue(seen and all(s.connected for _, s in seen), 'disconnected by a 2 s cut (conn/timeout %.0f s)'
                         % conn_timeout_s)
-        self.back_at_2m('a 2 s cut both ways')
+        self.wait_back_at_2m(vehicle, 'a 2 s cut both ways', 40.0)
 
         # 3. both ways for 8 s: disconnected after conn/timeout, the vehicle lands and disarms;
         #    when the link is back the node re-arms it and it climbs to 2 m again
@@ -80,17 +71,17 @@ class LinkCutTest(OffboardTestCase):
             last_heartbeat = vehicle.states[-1][0]
         start = self.cut(8.0)
         self.wait_until(lambda: not vehicle.state.connected, conn_timeout_s + 2.0, 'disconnected', [vehicle])
-        lost = next(t for t, s in self.states_since(start) if not s.connected)
+        lost = next(t for t, s in vehicle.states_since(start) if not s.connected)
         self.assertGreaterEqual(lost - last_heartbeat, conn_timeout_s - 0.1, 'disconnected before conn/timeout')
         self.assertLessEqual(lost - last_heartbeat, conn_timeout_s + 0.5, 'disconnected late')
         self.assertFalse(vehicle.state.armed or vehicle.state.mode, 'state not reset on disconnection: %s'
                          % vehicle.describe())
         rospy.loginfo('8 s cut: disconnected %.2f s after the last heartbeat', lost - last_heartbeat)
         self.wait_until(lambda: vehicle.state.connected, 8.0 + 3.0, 'connected again', [vehicle])
-        back = next(s for t, s in self.states_since(start) if s.connected)
+        back = next(s for t, s in vehicle.states_since(start) if s.connected)
         self.assertFalse(back.armed, 'the vehicle should have landed and disarmed during the 8 s cut: %s' % back)
         arms_before = node_log.count('Vehicle armed')
-        self.back_at_2m('an 8 s cut both ways')
+        self.wait_back_at_2m(vehicle, 'an 8 s cut both ways', 40.0)
         self.assertGreater(node_log.count('Vehicle armed'), arms_before, 'the node did not re-arm the vehicle')
         self.assert_holds(vehicle, 2.0, 0.2, 2.0)
 

@@ -7,7 +7,7 @@ import time
 import rospy
 import rostest
 
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
 
@@ -18,8 +18,7 @@ class TwoVehiclesTest(OffboardTestCase):
         uavs = [Vehicle('uav0/mavros'), Vehicle('uav1/mavros')]
         for uav in uavs:
             self.wait_for_connected(uav, 30.0)
-        self.wait_until(lambda: all(u.state.mode == 'OFFBOARD' and u.state.armed for u in uavs), 60.0,
-                        'both OFFBOARD and armed', uavs)
+        self.wait_for_offboard_and_armed(uavs, 60.0, 'both OFFBOARD and armed')
         self.wait_until(lambda: all(abs(u.z() - 2.0) <= 0.15 for u in uavs), 30.0, 'both at 2 m', uavs)
         armed_at = [next(t for t, s in u.states if s.armed) for u in uavs]
         self.assertLess(abs(armed_at[0] - armed_at[1]), 5.0, 'they should fly together, not one after the other')
@@ -33,8 +32,7 @@ class RespectPilotTest(OffboardTestCase):
         polite, default = Vehicle('uav0/mavros'), Vehicle('uav1/mavros')
         log = RosoutRecorder('/uav0/offb_node_py')
         both = [polite, default]
-        self.wait_until(lambda: all(u.state.mode == 'OFFBOARD' and u.state.armed for u in both), 90.0,
-                        'both OFFBOARD and armed', both)
+        self.wait_for_offboard_and_armed(both, 90.0, 'both OFFBOARD and armed')
         self.wait_until(lambda: all(abs(u.z() - 2.0) <= 0.15 for u in both), 30.0, 'both at 2 m', both)
         for uav in both:  # the pilot takes over
             self.assertTrue(self.set_mode(uav, 'AUTO.LOITER'))

@@ -3,8 +3,6 @@
 
 import os
 import signal
-import subprocess
-import threading
 import time
 import unittest
 
@@ -12,52 +10,21 @@ import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped
 
+from offboard_py.testing.processes import OutputProcess
+
 PKG = 'offboard_py'
 
 
-class NodeProcess:
+def start_node(namespace, *args):
     """`rosrun offboard_py offb_node.py ARGS` in its own namespace, output collected."""
-
-    def __init__(self, namespace, *args):
-        env = dict(os.environ, PYTHONUNBUFFERED='1')
-        self.proc = subprocess.Popen(
-            ['rosrun', PKG, 'offb_node.py', '__ns:=' + namespace] + list(args),
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True)
-        self.lines = []
-        self.reader = threading.Thread(target=self._read, daemon=True)
-        self.reader.start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            self.lines.append(line.rstrip())
-
-    @property
-    def output(self):
-        return '\n'.join(self.lines)
-
-    def wait_for_line(self, text, timeout_s):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if any(text in line for line in self.lines):
-                return True
-            if self.proc.poll() is not None:
-                break
-            time.sleep(0.1)
-        return any(text in line for line in self.lines)
-
-    def wait_exit(self, timeout_s):
-        try:
-            return self.proc.wait(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-            return None
+    return OutputProcess(['rosrun', PKG, 'offb_node.py', '__ns:=' + namespace] + list(args),
+                         env=dict(os.environ, PYTHONUNBUFFERED='1'))
 
 
 class NodeCliTest(unittest.TestCase):
 
     def test_rate_at_two_hz_is_refused(self):
-        node = NodeProcess('/cli_rate', '_rate:=2')
+        node = start_node('/cli_rate', '_rate:=2')
         code = node.wait_exit(30.0)
         self.assertIsNotNone(code, 'offb_node.py _rate:=2 still running after 30 s:\n' + node.output)
         self.assertNotEqual(code, 0, 'offb_node.py _rate:=2 exited 0:\n' + node.output)
@@ -65,7 +32,7 @@ class NodeCliTest(unittest.TestCase):
         self.assertNotIn('Traceback', node.output)
 
     def test_negative_prestream_count_is_refused(self):
-        node = NodeProcess('/cli_count', '_prestream_count:=-5')
+        node = start_node('/cli_count', '_prestream_count:=-5')
         code = node.wait_exit(30.0)
         self.assertNotIn(code, (0, None), 'expected a non-zero exit:\n' + node.output)
         self.assertIn('~prestream_count', node.output, node.output)
@@ -73,7 +40,7 @@ class NodeCliTest(unittest.TestCase):
     def test_waits_for_fcu_streams_nothing_and_exits_cleanly_on_ctrl_c(self):
         setpoints = []
         rospy.Subscriber('/cli_wait/mavros/setpoint_position/local', PoseStamped, setpoints.append)
-        node = NodeProcess('/cli_wait')
+        node = start_node('/cli_wait')
         self.assertTrue(node.wait_for_line('Waiting for the FCU connection', 30.0),
                         'no "Waiting for the FCU connection" message within 30 s:\n' + node.output)
         self.assertIn('/cli_wait/mavros/state', node.output, 'the message should name the topic')

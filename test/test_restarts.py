@@ -17,7 +17,7 @@ import rosgraph
 import rospy
 import rostest
 
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
 
@@ -31,16 +31,11 @@ def node_pid(name):
 
 class RestartsTest(OffboardTestCase):
 
-    def back_at_2m(self, vehicle, what, timeout_s=60.0):
-        self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed, timeout_s,
-                        'OFFBOARD and armed again after %s' % what, [vehicle])
-        self.wait_for_altitude(vehicle, 2.0, 0.2, 30.0)
-
     def test_bridge_then_vehicle_restart(self):
         vehicle = Vehicle('mavros')
         node_log = RosoutRecorder('/offb_node_py')
         self.wait_for_connected(vehicle, 30.0)
-        self.back_at_2m(vehicle, 'start-up')
+        self.wait_back_at_2m(vehicle, 'start-up')
         node_before = node_pid('/offb_node_py')
 
         # the bridge dies
@@ -50,7 +45,7 @@ class RestartsTest(OffboardTestCase):
         self.wait_until(lambda: vehicle.state.mode not in ('OFFBOARD', ''), 30.0,
                         'the failsafe after the bridge was killed', [vehicle])
         rospy.loginfo('bridge killed: vehicle in %s after %.1f s', vehicle.state.mode, time.monotonic() - killed)
-        self.back_at_2m(vehicle, 'the bridge respawned')
+        self.wait_back_at_2m(vehicle, 'the bridge respawned')
         self.assertNotEqual(node_pid('/mavros'), bridge_before, 'the bridge was not respawned')
         self.assertEqual(node_pid('/offb_node_py'), node_before, 'the node must not be restarted')
         self.assert_holds(vehicle, 2.0, 0.2, 2.0)
@@ -64,7 +59,7 @@ class RestartsTest(OffboardTestCase):
         self.wait_until(lambda: not vehicle.state.connected, 3.0 + 2.0, 'disconnected after conn/timeout', [vehicle])
         self.wait_until(lambda: vehicle.state.connected, 30.0, 'connected to the restarted vehicle', [vehicle])
         self.assertFalse(vehicle.state.armed, 'a restarted vehicle is disarmed')
-        self.back_at_2m(vehicle, 'the vehicle restarted')
+        self.wait_back_at_2m(vehicle, 'the vehicle restarted')
         self.assertGreater(node_log.count('Vehicle armed'), arms_before, 'the node did not re-arm')
         self.assertEqual(node_pid('/offb_node_py'), node_before, 'the node must not be restarted')
         self.assertIn('FCU connection back', node_log.lines)

@@ -8,13 +8,12 @@ import time
 
 import rospy
 import rostest
-from pymavlink.dialects.v20 import development as mavlink
 
 from offboard_py import px4_modes
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
-FORCE_DISARM = 21196.0
 
 
 class SignedLinkTest(OffboardTestCase):
@@ -23,8 +22,7 @@ class SignedLinkTest(OffboardTestCase):
         vehicle = Vehicle('mavros')
         bridge_log = RosoutRecorder('/mavros')
         self.wait_for_connected(vehicle, 30.0)
-        self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed, 60.0,
-                        'OFFBOARD and armed over a signed link', [vehicle])
+        self.wait_for_offboard_and_armed(vehicle, 60.0, 'OFFBOARD and armed over a signed link')
         self.wait_for_altitude(vehicle, 2.0, 0.15, 30.0)
 
         target = rospy.get_param('~target_system')
@@ -33,12 +31,15 @@ class SignedLinkTest(OffboardTestCase):
         spoof = mavlink.MAVLink(None, srcSystem=target, srcComponent=1)  # pretends to be the vehicle
         gcs = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
         land = px4_modes.encode('AUTO.LAND')
+        landed_disarmed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         start = time.monotonic()
         for _ in range(40):
-            sock.sendto(spoof.heartbeat_encode(2, 12, 1 | 16, land, 3).pack(spoof), bridge)  # MAV_TYPE_QUADROTOR
+            sock.sendto(spoof.heartbeat_encode(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, landed_disarmed,
+                                               land, mavlink.MAV_STATE_STANDBY).pack(spoof), bridge)
             sock.sendto(spoof.radio_status_encode(200, 190, 0, 100, 90, 0, 0).pack(spoof), bridge)
-            sock.sendto(gcs.command_long_encode(target, 1, 400, 0, 0, FORCE_DISARM, 0, 0, 0, 0, 0).pack(gcs), fcu)
+            sock.sendto(gcs.command_long_encode(target, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0,
+                                                0, ARM_DISARM_FORCE_MAGIC, 0, 0, 0, 0, 0).pack(gcs), fcu)
             sock.sendto(gcs.set_mode_encode(target, 1, land).pack(gcs), fcu)
             time.sleep(0.05)
         time.sleep(1.0)

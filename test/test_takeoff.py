@@ -7,7 +7,7 @@ import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped
 
-from offboard_test_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
 
@@ -21,9 +21,7 @@ class TakeoffTest(OffboardTestCase):
         rospy.Subscriber('mavros/setpoint_position/local', PoseStamped, lambda m: setpoints.append(time.monotonic()))
         self.wait_for_connected(vehicle, 30.0)
         try:
-            self.wait_until(lambda: vehicle.state.mode == 'OFFBOARD' and vehicle.state.armed,
-                            rospy.get_param('~deadline', 60.0),
-                            'OFFBOARD and armed', [vehicle])
+            self.wait_for_offboard_and_armed(vehicle, rospy.get_param('~deadline', 60.0))
         except AssertionError as err:
             raise AssertionError('%s; setpoints streamed by the node: %d; node said: %s'
                                  % (err, len(setpoints), log.lines[-5:]))

@@ -1,31 +1,5 @@
 #!/usr/bin/env python3
-"""A deliberately broken offboard node: it asks for OFFBOARD and arming without streaming
-setpoints first (it would only stream once armed). PX4 refuses to arm it, so the takeoff
-scenario must fail with it, saying why. Used by test/meta only."""
-
-import rospy
-from geometry_msgs.msg import PoseStamped
-from mavros_msgs.msg import State
-from mavros_msgs.srv import CommandBool, SetMode
-
-if __name__ == '__main__':
-    rospy.init_node('offb_node_py')
-    state = [State()]
-    rospy.Subscriber('mavros/state', State, lambda m: state.__setitem__(0, m))
-    pub = rospy.Publisher('mavros/setpoint_position/local', PoseStamped, queue_size=10)
-    set_mode = rospy.ServiceProxy('mavros/set_mode', SetMode)
-    arming = rospy.ServiceProxy('mavros/cmd/arming', CommandBool)
-    rate = rospy.Rate(1.0)
-    try:
-        while not rospy.is_shutdown():
-            if state[0].connected:
-                if state[0].armed:
-                    pose = PoseStamped()
-                    pose.pose.position.z = 2.0
-                    pub.publish(pose)
-                else:
-                    set_mode(custom_mode='OFFBOARD')
-                    arming(value=True)
-            rate.sleep()
-    except (rospy.ROSInterruptException, rospy.ServiceException):
-        pass
+"""A node that does not stream before arming (test/meta); the code is in offboard_py.testing.broken_offb_node."""
+import sys
+from offboard_py.testing.broken_offb_node import main
+sys.exit(main())

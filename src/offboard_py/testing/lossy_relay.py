@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """A lossy UDP link for tests: sits between the bridge and the simulated PX4.
 
 Side A faces the FCU (the simulator sends to --fcu-port), side B faces the bridge
@@ -7,7 +6,8 @@ first datagram. Every datagram may be dropped, duplicated, delayed or reordered,
 link can be cut for a while (--cut START:SECONDS, repeatable, seconds after start).
 With --control-port, a test cuts it when it wants: a datagram "cut SECONDS [both|to_fcu|to_bridge]"
 to that port cuts one or both directions from now on, and is answered "ok" (or "error: ...").
-Runs as a roslaunch node too (name:=value arguments are ignored). Loopback only.
+Runs as a roslaunch node too (name:=value arguments are ignored), through test/tools/lossy_relay.py.
+Loopback only.
 """
 
 import argparse
@@ -128,6 +128,3 @@ def main(argv=None):
         print('lossy_relay: %s' % stats)
     return 0
 
-
-if __name__ == '__main__':
-    sys.exit(main())

@@ -1,8 +1,9 @@
-"""Base class for the rostest scenarios, in the manner of PX4's MavrosTestCommon.
+"""The base class of the rostest scenarios, in the manner of PX4's MavrosTestCommon.
 
-It owns the subscriptions and service proxies of one vehicle namespace (`mavros`,
-`uav1/mavros`, ...) and offers waits with deadlines that fail with what was seen
-(mode, armed, position) rather than a bare assert.
+`Vehicle` owns the subscriptions and service proxies of one vehicle namespace (`mavros`,
+`uav1/mavros`, ...) and keeps what it saw; `OffboardTestCase` offers waits with deadlines
+that fail with what was seen (mode, armed, position) rather than a bare assert, and
+service calls bounded in time. Needs rospy and a node (rospy.init_node) in the caller.
 """
 
 import math
@@ -57,6 +58,14 @@ class Vehicle:
             self.velocity = msg
             self.velocities.append((time.monotonic(), msg.twist.linear.z))
 
+    def states_since(self, start):
+        """(time, State) received at or after monotonic time `start`."""
+        with self.lock:
+            return [(t, s) for t, s in self.states if t >= start]
+
+    def offboard_and_armed(self):
+        return self.state.mode == 'OFFBOARD' and self.state.armed
+
     def describe(self):
         s = self.state
         text = '%s: %s, mode %r, %s' % (self.ns, 'connected' if s.connected else 'not connected', s.mode,
@@ -91,9 +100,19 @@ class OffboardTestCase(unittest.TestCase):
     def wait_for_armed(self, vehicle, armed, timeout_s):
         self.wait_until(lambda: vehicle.state.armed == armed, timeout_s, 'armed' if armed else 'disarm', [vehicle])
 
+    def wait_for_offboard_and_armed(self, vehicles, timeout_s, what='OFFBOARD and armed'):
+        """Every one of vehicles (a Vehicle or a list) in OFFBOARD and armed at once."""
+        vehicles = vehicles if isinstance(vehicles, (list, tuple)) else [vehicles]
+        self.wait_until(lambda: all(v.offboard_and_armed() for v in vehicles), timeout_s, what, vehicles)
+
     def wait_for_altitude(self, vehicle, z_m, tolerance_m, timeout_s):
         self.wait_until(lambda: abs(vehicle.z() - z_m) <= tolerance_m, timeout_s,
                         'altitude %.2f +- %.2f m' % (z_m, tolerance_m), [vehicle])
+
+    def wait_back_at_2m(self, vehicle, what, timeout_s=60.0, tolerance_m=0.2):
+        """OFFBOARD and armed again after `what` within timeout_s, then at 2 m within 30 s."""
+        self.wait_for_offboard_and_armed(vehicle, timeout_s, 'OFFBOARD and armed again after %s' % what)
+        self.wait_for_altitude(vehicle, 2.0, tolerance_m, 30.0)
 
     def assert_holds(self, vehicle, z_m, tolerance_m, duration_s):
         """Every pose for duration_s stays within tolerance of z_m."""
@@ -107,13 +126,38 @@ class OffboardTestCase(unittest.TestCase):
                              'did not hold %.2f +- %.2f m for %.0f s: reached %.3f m (%s)'
                              % (z_m, tolerance_m, duration_s, worst, vehicle.describe()))
 
-    def set_mode(self, vehicle, mode):
-        vehicle.set_mode_srv.wait_for_service(10.0)
-        return vehicle.set_mode_srv(base_mode=0, custom_mode=mode).mode_sent
+    def call_service(self, proxy, timeout_s, **request):
+        """proxy(**request), failing with the service's name when it is not there, or has not
+        answered, within timeout_s in all. A rospy.ServiceException from the call is raised."""
+        deadline = time.monotonic() + timeout_s
+        try:
+            proxy.wait_for_service(timeout_s)
+        except rospy.ROSException:
+            self.fail('service %s not available within %.1f s' % (proxy.resolved_name, timeout_s))
+        outcome = []
+
+        def call():
+            try:
+                outcome.append((True, proxy(**request)))
+            except Exception as err:  # handed to the test's thread below
+                outcome.append((False, err))
+        worker = threading.Thread(target=call, daemon=True)
+        worker.start()
+        worker.join(max(0.0, deadline - time.monotonic()))
+        if not outcome:
+            self.fail('service %s%r did not answer within %.1f s' % (proxy.resolved_name, request, timeout_s))
+        ok, value = outcome[0]
+        if not ok:
+            raise value
+        return value
+
+    def set_mode(self, vehicle, mode, timeout_s=10.0):
+        """mode_sent of set_mode(custom_mode=mode)."""
+        return self.call_service(vehicle.set_mode_srv, timeout_s, base_mode=0, custom_mode=mode).mode_sent
 
     def set_arm(self, vehicle, arm, timeout_s=10.0):
-        vehicle.arming_srv.wait_for_service(10.0)
-        return vehicle.arming_srv(value=arm)
+        """The response of cmd/arming(value=arm)."""
+        return self.call_service(vehicle.arming_srv, timeout_s, value=arm)
 
 
 class RosoutRecorder:

@@ -1,0 +1,93 @@
+"""Instance numbers and UDP ports for tests, from one formula, so that runs do not clash.
+
+A test vehicle is SITL instance N (0..39) and, as in PX4 SITL:
+  system id          N + 1
+  FCU port           14580 + N   the simulated PX4 binds it
+  bridge port        14540 + N   the bridge (fcu_url) binds it; the simulator sends there
+  extra port k       15000 + 10 N + k  (k = 0..9) relays, a GCS, a fake FCU, control ports
+N stays below 40 so that the FCU and bridge ranges never overlap.
+
+Who uses which N:
+  0..19   the rostests, one block each, given in CMakeLists.txt (`instance:=N`);
+          two_vehicles.test takes 0 and 1 (multi_uav.launch numbers vehicles from 0)
+  20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
+  38, 39  a .test file run by hand without `instance:=N` (its default)
+The .test files spell the same formula in $(eval ...), as roslaunch cannot import it.
+"""
+
+import socket
+
+FCU_PORT_BASE = 14580
+BRIDGE_PORT_BASE = 14540
+EXTRA_PORT_BASE = 15000
+EXTRA_PORTS_PER_INSTANCE = 10
+MAX_INSTANCE = 39
+PYTEST_INSTANCES = range(20, 38)
+
+
+def _check(instance):
+    if not 0 <= instance <= MAX_INSTANCE:
+        raise ValueError('instance %r: expected 0..%d' % (instance, MAX_INSTANCE))
+    return instance
+
+
+def system_id(instance):
+    return _check(instance) + 1
+
+
+def fcu_port(instance):
+    """UDP port the simulated PX4 of this instance binds."""
+    return FCU_PORT_BASE + _check(instance)
+
+
+def bridge_port(instance):
+    """UDP port the bridge (or a ground station) of this instance binds."""
+    return BRIDGE_PORT_BASE + _check(instance)
+
+
+def extra_port(instance, k):
+    """The k-th (0..9) port of this instance's own block, for relays and fake ends."""
+    if not 0 <= k < EXTRA_PORTS_PER_INSTANCE:
+        raise ValueError('extra port %r: expected 0..%d' % (k, EXTRA_PORTS_PER_INSTANCE - 1))
+    return EXTRA_PORT_BASE + EXTRA_PORTS_PER_INSTANCE * _check(instance) + k
+
+
+def _udp_free(port, host='127.0.0.1'):
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind((host, port))
+        return True
+    except OSError:
+        return False
+    finally:
+        sock.close()
+
+
+def instance_free(instance):
+    """True when nothing on this host holds the FCU or the bridge port of the instance."""
+    return _udp_free(fcu_port(instance)) and _udp_free(bridge_port(instance))
+
+
+def free_instances(count, candidates=PYTEST_INSTANCES, taken=()):
+    """`count` consecutive instances from candidates, not in taken, whose ports are free now.
+
+    Raises RuntimeError naming the range when there are none.
+    """
+    candidates = list(candidates)
+    for i, first in enumerate(candidates):
+        block = candidates[i:i + count]
+        if len(block) == count and block == list(range(first, first + count)) \
+                and not set(block) & set(taken) and all(instance_free(n) for n in block):
+            return block
+    raise RuntimeError('no %d free consecutive instances in %d..%d (ports %d.., %d..)'
+                       % (count, candidates[0], candidates[-1], FCU_PORT_BASE, BRIDGE_PORT_BASE))
+
+
+def free_tcp_port(host='127.0.0.1'):
+    """A TCP port the kernel says is free now (for a private ROS master)."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        sock.bind((host, 0))
+        return sock.getsockname()[1]
+    finally:
+        sock.close()
