@@ -1,7 +1,7 @@
 """The takeoff scenario must fail for a node that does not stream first, and say why.
 
-Runs the real rostest (its own master) with test/tools/broken_offb_node.py as the node
-under test and reads the JUnit result it writes.
+Runs the real rostest (its own master, a free instance) with test/tools/broken_offb_node.py as
+the node under test and reads the JUnit result it writes.
 """
 
 import os
@@ -9,11 +9,14 @@ import subprocess
 import tempfile
 import xml.etree.ElementTree as ET
 
+from offboard_py.testing.ports import free_instances
+
 
 def test_takeoff_scenario_fails_for_a_node_without_prestream():
+    instance, = free_instances(1)
     with tempfile.TemporaryDirectory() as results:
         out = subprocess.run(['rostest', '--results-base-dir', results, 'offboard_py', 'takeoff.test',
-                              'node_type:=broken_offb_node.py', 'deadline:=25', 'ID:=9'],
+                              'node_type:=broken_offb_node.py', 'deadline:=25', 'instance:=%d' % instance],
                              capture_output=True, text=True, timeout=240)
         files = [os.path.join(d, f) for d, _, fs in os.walk(results) for f in fs if f.startswith('rosunit-')]
         assert files, 'no result file; rostest said:\n' + out.stdout[-3000:] + out.stderr[-3000:]

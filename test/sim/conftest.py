@@ -1,11 +1,12 @@
 """The simulated PX4 as a real process, and a plain pymavlink client talking to it over UDP.
 
 No ROS: this is how QGroundControl, MAVSDK or a script would see the vehicle.
-Each test starts its own simulator instance (its own system id and ports).
+Each test starts its own simulator instance (its own system id and ports), on instance
+numbers that are free at the time (offboard_py.testing.ports).
 """
 
 import os
-import subprocess
+import signal
 import sys
 import threading
 import time
@@ -15,46 +16,37 @@ import pytest
 os.environ.setdefault('MAVLINK20', '1')  # mavutil picks MAVLink 1 unless told; PX4 speaks 2
 from pymavlink import mavutil  # noqa: E402
 
-REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
-sys.path.insert(0, os.path.join(REPO, 'src'))
-
 from offboard_py import px4_modes  # noqa: E402
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink  # noqa: E402
+from offboard_py.testing import ports  # noqa: E402
+from offboard_py.testing.processes import OutputProcess  # noqa: E402
+from offboard_py.testing.typemask import POSITION_AND_YAW  # noqa: E402
 
-ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED, FAILED = 0, 1, 2, 3, 4
-CMD_DO_SET_MODE, CMD_ARM = 176, 400
-IGNORE_ALL_BUT_POSITION_AND_YAW = 0x9F8  # what mavros sends for setpoint_position/local
+REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
+SIM_SCRIPT = os.path.join(REPO, 'scripts', 'sim_px4.py')
+ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED, FAILED = (
+    mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_DENIED,
+    mavlink.MAV_RESULT_UNSUPPORTED, mavlink.MAV_RESULT_FAILED)
 
 
-class SimProcess:
+class SimProcess(OutputProcess):
+    """scripts/sim_px4.py -i INSTANCE ARGS, run by this Python with the caller's environment."""
+
     def __init__(self, instance, *args):
-        env = dict(os.environ, PYTHONPATH=os.path.join(REPO, 'src') + os.pathsep + os.environ.get('PYTHONPATH', ''))
         self.instance = instance
-        self.proc = subprocess.Popen([sys.executable, os.path.join(REPO, 'scripts', 'sim_px4.py'),
-                                      '-i', str(instance)] + list(args),
-                                     env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        self.lines = []
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self):
-        for line in self.proc.stdout:
-            self.lines.append(line.rstrip())
+        super().__init__([sys.executable, SIM_SCRIPT, '-i', str(instance)] + list(args))
 
     def stop(self):
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+        return super().stop(signal.SIGTERM, timeout_s=5.0)
 
 
 class Client:
-    """A MAVLink ground station / companion on 14540+N, as mavros or MAVSDK would be."""
+    """A MAVLink ground station / companion on the instance's bridge port, as mavros or MAVSDK would be."""
 
-    def __init__(self, instance, system_id=255, component_id=190):
-        self.target = instance + 1
-        self.conn = mavutil.mavlink_connection('udpin:127.0.0.1:%d' % (14540 + instance), dialect='development',
+    def __init__(self, instance, system_id=255, component_id=mavlink.MAV_COMP_ID_MISSIONPLANNER):
+        self.target = ports.system_id(instance)
+        self.conn = mavutil.mavlink_connection('udpin:127.0.0.1:%d' % ports.bridge_port(instance),
+                                               dialect='development',
                                                source_system=system_id, source_component=component_id)
         self.mav = self.conn.mav
         self.lock = threading.Lock()
@@ -104,8 +96,9 @@ class Client:
         hb, pos = self.latest.get('HEARTBEAT'), self.latest.get('LOCAL_POSITION_NED')
         text = 'no heartbeat'
         if hb:
+            armed = hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
             text = 'mode %s, %s, status %d' % (px4_modes.mode_string(hb.base_mode, hb.custom_mode),
-                                               'armed' if hb.base_mode & 128 else 'disarmed', hb.system_status)
+                                               'armed' if armed else 'disarmed', hb.system_status)
         if pos:
             text += ', NED (%.2f, %.2f, %.2f)' % (pos.x, pos.y, pos.z)
         return text
@@ -123,7 +116,7 @@ class Client:
 
     def armed(self):
         hb = self.latest.get('HEARTBEAT')
-        return bool(hb and hb.base_mode & 128)
+        return bool(hb and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
     def wait_mode(self, mode, timeout_s):
         """CURRENT_MODE is sent on every change, so once one has come it is the freshest word."""
@@ -149,10 +142,11 @@ class Client:
         return self.wait_for(answers, timeout_s, 'COMMAND_ACK for command %d' % command)
 
     def set_mode(self, mode, timeout_s=3.0):
-        """SET_MODE message, as mavros sends it; returns the COMMAND_ACK(176) result."""
+        """SET_MODE message, as mavros sends it; returns the result of the COMMAND_ACK(DO_SET_MODE)."""
         start = len(self.acks)
-        self.send(self.mav.set_mode_encode(self.target, 1, px4_modes.encode(mode)))
-        return self._first_ack(start, CMD_DO_SET_MODE, timeout_s)
+        self.send(self.mav.set_mode_encode(self.target, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                                           px4_modes.encode(mode)))
+        return self._first_ack(start, mavlink.MAV_CMD_DO_SET_MODE, timeout_s)
 
     def _first_ack(self, start, command, timeout_s):
         def first():
@@ -163,11 +157,12 @@ class Client:
         return self.wait_for(first, timeout_s, 'COMMAND_ACK for command %d' % command)[0]
 
     def arm(self, arm=True, force=False):
-        return self.command(CMD_ARM, 1.0 if arm else 0.0, 21196.0 if force else 0.0)[0]
+        return self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if arm else 0.0,
+                            float(ARM_DISARM_FORCE_MAGIC) if force else 0.0)[0]
 
     # -- setpoint stream -----------------------------------------------------------------------
 
-    def setpoint(self, north, east, down, yaw=0.0, type_mask=IGNORE_ALL_BUT_POSITION_AND_YAW, frame=1,
+    def setpoint(self, north, east, down, yaw=0.0, type_mask=POSITION_AND_YAW, frame=mavlink.MAV_FRAME_LOCAL_NED,
                  velocity=(0.0, 0.0, 0.0)):
         return self.mav.set_position_target_local_ned_encode(0, self.target, 1, frame, type_mask, north, east, down,
                                                              *velocity, 0.0, 0.0, 0.0, yaw, 0.0)
@@ -198,21 +193,21 @@ class Client:
 
 @pytest.fixture
 def start_sim():
-    """start_sim(instance, *args) -> (SimProcess, Client with a heartbeat received)."""
+    """start_sim(*args) -> (SimProcess, Client with a heartbeat received), on a free instance."""
     started = []
 
-    def start(instance, *args):
+    def start(*args):
+        instance, = ports.free_instances(1, taken=[sim.instance for sim, _ in started])
         sim = SimProcess(instance, *args)
         client = Client(instance)
         started.append((sim, client))
         try:
             client.wait_heartbeat(10.0)
         except BaseException:
-            print('\n'.join(sim.lines))
+            print(sim.output)
             raise
         return sim, client
     yield start
     for sim, client in started:
         client.close()
         sim.stop()
-

@@ -12,6 +12,15 @@ from pymavlink.dialects.v20 import development as mavlink2
 
 from conftest import ACCEPTED
 
+from offboard_py.dialect import mavlink
+
+ARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+GCS_COMPONENT = mavlink.MAV_COMP_ID_MISSIONPLANNER
+
+
+def arm_command(mav, target):
+    return mav.command_long_encode(target, 1, ARM, 0, 1, 0, 0, 0, 0, 0, 0)
+
 FAST = ('--ready-delay', '1')
 KEY = bytes(range(7, 39))
 
@@ -36,22 +45,22 @@ def exit_counts(sim):
 def test_signing_required_drops_unsigned_and_badly_signed(start_sim, tmp_path):
     key_file = tmp_path / 'mavlink-signing-key.bin'
     key_file.write_bytes(KEY)
-    sim, client = start_sim(22, '--signing-key', str(key_file), *FAST)
+    sim, client = start_sim('--signing-key', str(key_file), *FAST)
     hb = client.wait_heartbeat()
     assert hb.get_header().incompat_flags & mavlink2.MAVLINK_IFLAG_SIGNED, 'PX4 with a key signs what it sends'
     time.sleep(1.2)
 
     # unsigned MAVLink 2 (arm, parameter write), MAVLink 1, and a frame signed with another key
-    assert no_ack_for(client, lambda: client.send(client.mav.command_long_encode(23, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)))
-    client.send(client.mav.param_set_encode(23, 1, b'MIS_TAKEOFF_ALT', 9.0, 9))
-    v1 = mavlink1.MAVLink(None, srcSystem=255, srcComponent=190)
-    assert no_ack_for(client, lambda: client.conn.write(v1.command_long_encode(23, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)
+    assert no_ack_for(client, lambda: client.send(arm_command(client.mav, client.target)))
+    client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 9.0, mavlink.MAV_PARAM_TYPE_REAL32))
+    v1 = mavlink1.MAVLink(None, srcSystem=255, srcComponent=GCS_COMPONENT)
+    assert no_ack_for(client, lambda: client.conn.write(arm_command(v1, client.target)
                                                         .pack(v1)))
-    forger = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
+    forger = mavlink2.MAVLink(None, srcSystem=255, srcComponent=GCS_COMPONENT)
     forger.signing.secret_key, forger.signing.sign_outgoing = bytes(32 * [9]), True
     forger.signing.timestamp = 2 ** 46
     assert no_ack_for(client, lambda: client.conn.write(
-        forger.command_long_encode(23, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0).pack(forger)))
+        arm_command(forger, client.target).pack(forger)))
     assert not client.armed() and 'PARAM_VALUE' not in client.latest, client.describe()
 
     # the right key: answered, and the forged far-future timestamp locked nobody out
@@ -63,37 +72,38 @@ def test_signing_required_drops_unsigned_and_badly_signed(start_sim, tmp_path):
 
 
 def test_setup_signing_provisions_the_key(start_sim):
-    sim, client = start_sim(23, *FAST)
+    sim, client = start_sim(*FAST)
     time.sleep(1.2)
-    client.send(client.mav.setup_signing_encode(24, 1, list(KEY), 0))
-    client.wait_for(lambda: client.latest['HEARTBEAT'].get_header().incompat_flags & 1, 3.0, 'a signed HEARTBEAT')
-    assert no_ack_for(client, lambda: client.send(client.mav.command_long_encode(24, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)))
+    client.send(client.mav.setup_signing_encode(client.target, 1, list(KEY), 0))
+    client.wait_for(lambda: client.latest['HEARTBEAT'].get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED, 3.0,
+                    'a signed HEARTBEAT')
+    assert no_ack_for(client, lambda: client.send(arm_command(client.mav, client.target)))
     client.conn.setup_signing(KEY, sign_outgoing=True)
     assert client.arm() == ACCEPTED
     # an all-zero key, signed with the current one, turns signing off again
-    client.send(client.mav.setup_signing_encode(24, 1, [0] * 32, 0))
+    client.send(client.mav.setup_signing_encode(client.target, 1, [0] * 32, 0))
     client.conn.disable_signing()
-    client.wait_for(lambda: not client.latest['HEARTBEAT'].get_header().incompat_flags & 1, 3.0,
-                    'an unsigned HEARTBEAT')
+    client.wait_for(lambda: not client.latest['HEARTBEAT'].get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED,
+                    3.0, 'an unsigned HEARTBEAT')
     assert client.arm(False) == ACCEPTED
 
 
 def test_allow_list_takes_commands_from_listed_systems_only(start_sim):
-    sim, client = start_sim(24, '--allow-sysid', '1,42', *FAST)
+    sim, client = start_sim('--allow-sysid', '1,42', *FAST)
     time.sleep(1.2)
-    assert no_ack_for(client, lambda: client.send(client.mav.command_long_encode(25, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0)))
+    assert no_ack_for(client, lambda: client.send(arm_command(client.mav, client.target)))
     for _ in range(10):
         client.send(client.setpoint(0, 0, -2))
         time.sleep(0.02)
     assert not client.armed()
     # reading is open to anyone
-    client.send(client.mav.param_request_read_encode(25, 1, b'COM_OF_LOSS_T', -1))
+    client.send(client.mav.param_request_read_encode(client.target, 1, b'COM_OF_LOSS_T', -1))
     client.wait_for(lambda: client.latest.get('PARAM_VALUE'), 3.0, 'PARAM_VALUE')
     # system 42 is listed (its ACK comes back to the same socket)
-    gcs = mavlink2.MAVLink(None, srcSystem=42, srcComponent=190)
+    gcs = mavlink2.MAVLink(None, srcSystem=42, srcComponent=GCS_COMPONENT)
     start = len(client.acks)
-    client.conn.write(gcs.command_long_encode(25, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0).pack(gcs))
-    client.wait_for(lambda: any(a.command == 400 and a.result == ACCEPTED for _, a in client.acks[start:]), 3.0,
+    client.conn.write(arm_command(gcs, client.target).pack(gcs))
+    client.wait_for(lambda: any(a.command == ARM and a.result == ACCEPTED for _, a in client.acks[start:]), 3.0,
                     'arming accepted from system 42')
     client.wait_armed(True, 2.0)
     assert exit_counts(sim)['not_allowed'] == 1 + 10  # the arm command and ten setpoints

@@ -8,9 +8,22 @@ import os
 import socket
 import time
 
-from conftest import ACCEPTED, DENIED, TEMPORARILY_REJECTED, UNSUPPORTED, px4_modes
+from conftest import ACCEPTED, DENIED, FAILED, REPO, TEMPORARILY_REJECTED, UNSUPPORTED, px4_modes
+
+from offboard_py.dialect import FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
+from offboard_py.testing import ports
+from offboard_py.testing.typemask import IGNORE_ALL_VECTORS, POSITION_AND_YAW
 
 FAST = ('--ready-delay', '1')
+HOLD_FLAGS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_AUTO_ENABLED
+              | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED)
+ARMED_OFFBOARD_FLAGS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
+                        | mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+NAN4 = (math.nan,) * 4
+# common.xml's FAILURE_UNIT and FAILURE_TYPE values not in pymavlink 2.4.49 (nor in offboard_py.dialect)
+FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OFF = 0, 1
+REAL32, INT32 = mavlink.MAV_PARAM_TYPE_REAL32, mavlink.MAV_PARAM_TYPE_INT32
+MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 
 
 def fly_offboard_to_2m(client):
@@ -24,14 +37,14 @@ def fly_offboard_to_2m(client):
 
 
 def test_heartbeat_identity_and_boot_state(start_sim):
-    _, client = start_sim(3)
+    sim, client = start_sim()
     hb = client.wait_heartbeat()
     src = [m for _, m in client.history if m.get_type() == 'HEARTBEAT'][0]
-    assert src.get_srcSystem() == 4 and src.get_srcComponent() == 1
-    assert (hb.type, hb.autopilot, hb.mavlink_version) == (2, 12, 3)
-    assert hb.custom_mode == 50593792, 'PX4 SITL boots in AUTO.LOITER'
-    assert hb.base_mode == 1 | 4 | 8 | 16, 'AUTO modes: custom, auto, guided, stabilize; disarmed'
-    assert hb.system_status == 3, 'STANDBY'
+    assert src.get_srcSystem() == ports.system_id(sim.instance) and src.get_srcComponent() == 1
+    assert (hb.type, hb.autopilot, hb.mavlink_version) == (mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, 3)
+    assert hb.custom_mode == px4_modes.encode('AUTO.LOITER'), 'PX4 SITL boots in AUTO.LOITER'
+    assert hb.base_mode == HOLD_FLAGS, 'AUTO modes: custom, auto, guided, stabilize; disarmed'
+    assert hb.system_status == mavlink.MAV_STATE_STANDBY, 'STANDBY'
     t0 = time.monotonic()
     count0 = sum(1 for _, m in client.history if m.get_type() == 'HEARTBEAT')
     time.sleep(3.0)
@@ -40,7 +53,7 @@ def test_heartbeat_identity_and_boot_state(start_sim):
 
 
 def test_streams_at_px4_onboard_rates(start_sim):
-    _, client = start_sim(4, *FAST)
+    _, client = start_sim(*FAST)
     time.sleep(1.0)
     t0 = time.monotonic()
     time.sleep(2.0)
@@ -53,19 +66,20 @@ def test_streams_at_px4_onboard_rates(start_sim):
         assert abs(rates.get(name, 0) - hz) <= hz * 0.15 + 0.5, '%s at %.1f Hz, PX4 sends %d Hz' % (
             name, rates.get(name, 0), hz)
     # SET_MESSAGE_INTERVAL: LOCAL_POSITION_NED to 5 Hz; HEARTBEAT cannot be changed (FAILED, as PX4)
-    assert client.command(511, 32, 200000)[0] == ACCEPTED
-    assert client.command(511, 0, 100000)[0] == 4
+    interval = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+    assert client.command(interval, mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, 200000)[0] == ACCEPTED
+    assert client.command(interval, mavlink.MAVLINK_MSG_ID_HEARTBEAT, 100000)[0] == FAILED
     t1 = time.monotonic()
     time.sleep(2.0)
     n = sum(1 for t, m in list(client.history) if t >= t1 + 0.2 and m.get_type() == 'LOCAL_POSITION_NED')
     assert 7 <= n <= 11, 'LOCAL_POSITION_NED at 5 Hz should give ~9 in 1.8 s, got %d' % n
     # REQUEST_MESSAGE: one AUTOPILOT_VERSION
-    assert client.command(512, 148)[0] == ACCEPTED
+    assert client.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)[0] == ACCEPTED
     client.wait_for(lambda: client.latest.get('AUTOPILOT_VERSION'), 2.0, 'AUTOPILOT_VERSION')
 
 
 def test_offboard_refusals_then_acceptance(start_sim):
-    _, client = start_sim(5, *FAST)
+    _, client = start_sim(*FAST)
     time.sleep(1.2)
     # disarmed: OFFBOARD is accepted even with no setpoints (current PX4) ...
     assert client.set_mode('OFFBOARD') == ACCEPTED
@@ -87,15 +101,16 @@ def test_offboard_refusals_then_acceptance(start_sim):
 
 
 def test_command_long_set_mode_gets_two_acks(start_sim):
-    _, client = start_sim(6, *FAST)
-    results = client.command(176, 1, 4, 4, acks=2)  # AUTO.MISSION: accepted while disarmed
-    assert results == [ACCEPTED, ACCEPTED]
-    results = client.command(176, 1, 4, 1, acks=2)  # AUTO.READY is refused by the commander
-    assert results == [ACCEPTED, TEMPORARILY_REJECTED]
+    _, client = start_sim(*FAST)
+    custom, auto = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, px4_modes.MAIN_AUTO
+    results = client.command(mavlink.MAV_CMD_DO_SET_MODE, custom, auto, px4_modes.SUB_MISSION, acks=2)
+    assert results == [ACCEPTED, ACCEPTED], 'AUTO.MISSION: accepted while disarmed'
+    results = client.command(mavlink.MAV_CMD_DO_SET_MODE, custom, auto, px4_modes.SUB_READY, acks=2)
+    assert results == [ACCEPTED, TEMPORARILY_REJECTED], 'AUTO.READY is refused by the commander'
 
 
 def test_offboard_takeoff_to_2m_and_hold(start_sim):
-    _, client = start_sim(7, *FAST)
+    _, client = start_sim(*FAST)
     time.sleep(1.2)
     armed_at = time.monotonic()
     fly_offboard_to_2m(client)
@@ -110,9 +125,9 @@ def test_offboard_takeoff_to_2m_and_hold(start_sim):
     assert all(abs(z + 2.0) <= 0.1 for z in samples), 'hold left 2 +- 0.1 m: %s' % samples
     assert climb_s < 15.0
     ext = client.latest['EXTENDED_SYS_STATE']
-    assert ext.landed_state == 2, 'IN_AIR'
-    assert client.latest['HEARTBEAT'].base_mode == 1 | 16 | 128, 'armed OFFBOARD = 145 (guided=false)'
-    assert client.latest['HEARTBEAT'].system_status == 4, 'ACTIVE'
+    assert ext.landed_state == mavlink.MAV_LANDED_STATE_IN_AIR, 'IN_AIR'
+    assert client.latest['HEARTBEAT'].base_mode == ARMED_OFFBOARD_FLAGS, 'armed OFFBOARD = 145 (guided=false)'
+    assert client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_ACTIVE, 'ACTIVE'
 
 
 def failsafe_delay(client, mode):
@@ -126,14 +141,15 @@ def failsafe_delay(client, mode):
 
 
 def test_failsafe_without_rc_is_return_and_lands(start_sim):
-    _, client = start_sim(8, *FAST)
+    _, client = start_sim(*FAST)
     time.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'AUTO.RTL')
     assert delay <= 0.5 + 0.2, 'failsafe took %.2f s (COM_OF_LOSS_T 0.5 + 0.2)' % delay
     cm = client.latest['CURRENT_MODE']
     assert px4_modes.decode(cm.intended_custom_mode) == 'OFFBOARD', 'the intended mode stays OFFBOARD'
-    client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == 5, 2.0, 'CRITICAL while in failsafe')
+    client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_CRITICAL, 2.0,
+                    'CRITICAL while in failsafe')
     # next to home: it descends at once, under control, lands and disarms
     zs = []
     client.wait_for(lambda: zs.append(client.latest['LOCAL_POSITION_NED'].vz) or not client.armed(), 20.0,
@@ -147,7 +163,7 @@ def test_failsafe_without_rc_is_return_and_lands(start_sim):
 
 
 def test_failsafe_with_rc_holds_position(start_sim):
-    _, client = start_sim(9, '--rc', *FAST)
+    _, client = start_sim('--rc', *FAST)
     time.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'POSCTL')  # COM_OBL_RC_ACT 0 (Position) applies with RC
@@ -160,11 +176,11 @@ def test_failsafe_with_rc_holds_position(start_sim):
 
 
 def test_arming_ack_codes(start_sim):
-    _, client = start_sim(10)  # default ready delay: 5 s, as PX4 SITL
+    _, client = start_sim()  # default ready delay: 5 s, as PX4 SITL
     assert client.arm() == TEMPORARILY_REJECTED, 'not ready right after boot'
     client.wait_for(lambda: client.arm() == ACCEPTED, 8.0, 'arming accepted once ready')
     assert client.arm() == ACCEPTED, 'arming while armed is accepted'
-    assert client.command(22, 0, 0, 0, math.nan, math.nan, math.nan, math.nan)[0] == ACCEPTED
+    assert client.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, *NAN4)[0] == ACCEPTED
     client.wait_for(lambda: client.z() < -1.0, 10.0, 'climbing in AUTO.TAKEOFF')
     assert client.arm(False) == DENIED, 'disarming in the air is denied'
     assert client.armed()
@@ -172,7 +188,7 @@ def test_arming_ack_codes(start_sim):
 
 
 def test_preflight_auto_disarm(start_sim):
-    _, client = start_sim(11, 'COM_DISARM_PRFLT=2', *FAST)
+    _, client = start_sim('COM_DISARM_PRFLT=2', *FAST)
     time.sleep(1.2)
     t0 = time.monotonic()
     assert client.arm() == ACCEPTED
@@ -183,28 +199,28 @@ def test_preflight_auto_disarm(start_sim):
 
 
 def test_injected_failure_blocks_arming(start_sim):
-    _, client = start_sim(12, 'SYS_FAILURE_EN=1', *FAST)
+    _, client = start_sim('SYS_FAILURE_EN=1', *FAST)
     time.sleep(1.2)
-    assert client.command(420, 0, 1)[0] == ACCEPTED  # gyro off
+    assert client.command(MAV_CMD_INJECT_FAILURE, FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OFF)[0] == ACCEPTED
     assert client.arm() == TEMPORARILY_REJECTED
-    assert client.command(420, 0, 0)[0] == ACCEPTED  # back to OK
+    assert client.command(MAV_CMD_INJECT_FAILURE, FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OK)[0] == ACCEPTED
     assert client.arm() == ACCEPTED
 
 
 def test_takeoff_and_land_commands(start_sim):
-    _, client = start_sim(13, *FAST)
+    _, client = start_sim(*FAST)
     time.sleep(1.2)
     assert client.arm() == ACCEPTED
-    assert client.command(22, 0, 0, 0, math.nan, math.nan, math.nan, math.nan)[0] == ACCEPTED
+    assert client.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, *NAN4)[0] == ACCEPTED
     client.wait_mode('AUTO.TAKEOFF', 1.0)
     client.wait_mode('AUTO.LOITER', 15.0)
     assert abs(client.z() + 2.5) < 0.35, 'MIS_TAKEOFF_ALT is 2.5 m, z = %.2f' % client.z()
-    assert client.command(21, 0, 0, 0, math.nan, math.nan, math.nan, math.nan)[0] == ACCEPTED
+    assert client.command(mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, *NAN4)[0] == ACCEPTED
     client.wait_mode('AUTO.LAND', 1.0)
     client.wait_armed(False, 15.0)
-    assert client.latest['EXTENDED_SYS_STATE'].landed_state == 1
+    assert client.latest['EXTENDED_SYS_STATE'].landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND
     client.wait_mode('AUTO.LOITER', 2.0)  # back to the user's mode before the landing
-    assert client.command(31000)[0] == UNSUPPORTED
+    assert client.command(mavlink.MAV_CMD_WAYPOINT_USER_1)[0] == UNSUPPORTED
 
 
 def read_param(client, name, timeout_s=2.0):
@@ -216,20 +232,20 @@ def read_param(client, name, timeout_s=2.0):
 
 def test_param_get_set_float_and_int(start_sim):
     import struct
-    _, client = start_sim(14, *FAST)
+    _, client = start_sim(*FAST)
     value = read_param(client, 'MIS_TAKEOFF_ALT')
-    assert value.param_type == 9 and value.param_value == 2.5
-    client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 3.5, 9))
+    assert value.param_type == REAL32 and value.param_value == 2.5
+    client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 3.5, REAL32))
     client.wait_for(lambda: read_param(client, 'MIS_TAKEOFF_ALT').param_value == 3.5, 3.0, 'MIS_TAKEOFF_ALT=3.5')
     value = read_param(client, 'COM_OBL_RC_ACT')
-    assert value.param_type == 6
+    assert value.param_type == INT32
     assert struct.unpack('<i', struct.pack('<f', value.param_value))[0] == 0, 'INT32 is sent bytewise'
     wire = struct.unpack('<f', struct.pack('<i', 4))[0]
-    client.send(client.mav.param_set_encode(client.target, 1, b'COM_OBL_RC_ACT', wire, 6))
+    client.send(client.mav.param_set_encode(client.target, 1, b'COM_OBL_RC_ACT', wire, INT32))
     client.wait_for(lambda: struct.unpack('<i', struct.pack('<f', read_param(client, 'COM_OBL_RC_ACT').param_value))[0]
                     == 4, 3.0, 'COM_OBL_RC_ACT=4')
     # out of range: refused, the value in force is echoed
-    client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 1000.0, 9))
+    client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 1000.0, REAL32))
     time.sleep(0.3)
     assert read_param(client, 'MIS_TAKEOFF_ALT').param_value == 3.5
     # the whole list
@@ -243,7 +259,7 @@ def test_param_get_set_float_and_int(start_sim):
 def upload(client, items, use_int=True):
     """Upload (command, frame, params, lat, lon, alt) tuples; return the MISSION_ACK type."""
     start = len(client.history)
-    client.send(client.mav.mission_count_encode(client.target, 1, len(items), 0))
+    client.send(client.mav.mission_count_encode(client.target, 1, len(items), MISSION))
     sent = set()
     deadline = time.monotonic() + 10.0
     while time.monotonic() < deadline:
@@ -256,7 +272,7 @@ def upload(client, items, use_int=True):
                         client.target, 1, m.seq, frame, cmd, 0, 1, *params, int(lat * 1e7), int(lon * 1e7), alt))
                 else:
                     client.send(client.mav.mission_item_encode(
-                        client.target, 1, m.seq, frame - 3 if frame == 6 else frame, cmd, 0, 1, *params, lat, lon, alt))
+                        client.target, 1, m.seq, LEGACY_FRAME.get(frame, frame), cmd, 0, 1, *params, lat, lon, alt))
             if m.get_type() == 'MISSION_ACK':
                 return m.type
         time.sleep(0.02)
@@ -265,19 +281,21 @@ def upload(client, items, use_int=True):
 
 def download(client):
     start = len(client.history)
-    client.send(client.mav.mission_request_list_encode(client.target, 1, 0))
+    client.send(client.mav.mission_request_list_encode(client.target, 1, MISSION))
     count = client.wait_for(lambda: next((m for _, m in client.history[start:] if m.get_type() == 'MISSION_COUNT'),
                                          None), 2.0, 'MISSION_COUNT').count
     items = []
     for seq in range(count):
-        client.send(client.mav.mission_request_int_encode(client.target, 1, seq, 0))
+        client.send(client.mav.mission_request_int_encode(client.target, 1, seq, MISSION))
         items.append(client.wait_for(lambda: next((m for _, m in client.history[start:]
                                                    if m.get_type() == 'MISSION_ITEM_INT' and m.seq == seq), None),
                                      2.0, 'MISSION_ITEM_INT %d' % seq))
-    client.send(client.mav.mission_ack_encode(client.target, 1, 0, 0))
+    client.send(client.mav.mission_ack_encode(client.target, 1, mavlink.MAV_MISSION_ACCEPTED, MISSION))
     return items
 
 
+# MISSION_ITEM (float) has no _INT frames
+LEGACY_FRAME = {mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT}
 HOME = (47.397742, 8.545594)
 M_PER_DEG = 111194.93
 
@@ -288,34 +306,35 @@ def offset(north, east):
 
 def square_mission():
     wps = [offset(n, e) for n, e in ((10, 0), (10, 10), (0, 10), (0, 0))]
-    items = [(22, 6, (0, 0, 0, math.nan), 0.0, 0.0, 5.0)]
-    items += [(16, 6, (0, 1.0, 0, math.nan), lat, lon, 5.0) for lat, lon in wps]
-    items += [(21, 6, (0, 0, 0, math.nan), wps[-1][0], wps[-1][1], 0.0)]
+    frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    items = [(mavlink.MAV_CMD_NAV_TAKEOFF, frame, (0, 0, 0, math.nan), 0.0, 0.0, 5.0)]
+    items += [(mavlink.MAV_CMD_NAV_WAYPOINT, frame, (0, 1.0, 0, math.nan), lat, lon, 5.0) for lat, lon in wps]
+    items += [(mavlink.MAV_CMD_NAV_LAND, frame, (0, 0, 0, math.nan), wps[-1][0], wps[-1][1], 0.0)]
     return items
 
 
 def test_mission_upload_download_clear(start_sim):
-    _, client = start_sim(15, *FAST)
+    _, client = start_sim(*FAST)
     items = square_mission()
-    assert upload(client, items) == 0
+    assert upload(client, items) == mavlink.MAV_MISSION_ACCEPTED
     got = download(client)
     assert [m.command for m in got] == [i[0] for i in items]
     assert abs(got[2].x * 1e-7 - items[2][3]) < 1e-6 and got[2].z == 5.0
     # the legacy MISSION_ITEM protocol works too
-    assert upload(client, items[:3], use_int=False) == 0
+    assert upload(client, items[:3], use_int=False) == mavlink.MAV_MISSION_ACCEPTED
     assert len(download(client)) == 3
     start = len(client.history)
-    client.send(client.mav.mission_clear_all_encode(client.target, 1, 0))
+    client.send(client.mav.mission_clear_all_encode(client.target, 1, MISSION))
     ack = client.wait_for(lambda: next((m for _, m in client.history[start:] if m.get_type() == 'MISSION_ACK'), None),
                           2.0, 'MISSION_ACK after clear')
-    assert ack.type == 0
+    assert ack.type == mavlink.MAV_MISSION_ACCEPTED
     assert download(client) == []
 
 
 def test_four_waypoint_mission_flown_and_landed(start_sim):
-    _, client = start_sim(16, *FAST)
+    _, client = start_sim(*FAST)
     time.sleep(1.2)
-    assert upload(client, square_mission()) == 0
+    assert upload(client, square_mission()) == mavlink.MAV_MISSION_ACCEPTED
     assert client.set_mode('AUTO.MISSION') == ACCEPTED
     assert client.arm() == ACCEPTED
     client.wait_for(lambda: {m.seq for _, m in list(client.history) if m.get_type() == 'MISSION_ITEM_REACHED'}
@@ -328,11 +347,12 @@ def test_four_waypoint_mission_flown_and_landed(start_sim):
 
 
 def test_two_instances_side_by_side(start_sim):
-    _, first = start_sim(17, *FAST)
-    _, second = start_sim(18, *FAST)
+    first_sim, first = start_sim(*FAST)
+    second_sim, second = start_sim(*FAST)
     src = {c.target: [m.get_srcSystem() for _, m in c.history if m.get_type() == 'HEARTBEAT'][0]
            for c in (first, second)}
-    assert src == {18: 18, 19: 19}
+    ids = [ports.system_id(sim.instance) for sim in (first_sim, second_sim)]
+    assert ids[0] != ids[1] and src == {ids[0]: ids[0], ids[1]: ids[1]}
     time.sleep(1.2)
     assert first.arm() == ACCEPTED
     time.sleep(1.5)
@@ -340,24 +360,27 @@ def test_two_instances_side_by_side(start_sim):
 
 
 def test_garbage_and_other_systems_change_nothing(start_sim):
-    sim, client = start_sim(19, *FAST)
+    sim, client = start_sim(*FAST)
     time.sleep(1.2)
     raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    fcu = ('127.0.0.1', ports.fcu_port(sim.instance))
     rng = __import__('random').Random(7)
     for i in range(2000):
-        raw.sendto(bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 300))), ('127.0.0.1', 14580 + 19))
+        raw.sendto(bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 300))), fcu)
         if i % 50 == 0:
             time.sleep(0.005)  # paced, so the kernel does not drop it before the parser sees it
     for magic in (0xFD, 0xFE):
         for i in range(200):
             body = bytes(rng.getrandbits(8) for _ in range(rng.randint(5, 60)))
-            raw.sendto(bytes([magic]) + body, ('127.0.0.1', 14580 + 19))
+            raw.sendto(bytes([magic]) + body, fcu)
             if i % 50 == 0:
                 time.sleep(0.005)
     acks_before = len(client.acks)
-    client.send(client.mav.command_long_encode(42, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0))  # arm system 42
-    client.send(client.mav.set_mode_encode(42, 1, px4_modes.encode('OFFBOARD')))
-    client.send(client.mav.command_long_encode(21, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0))  # not us either (we are 20)
+    arm = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+    client.send(client.mav.command_long_encode(42, 1, arm, 0, 1, 0, 0, 0, 0, 0, 0))  # arm system 42
+    client.send(client.mav.set_mode_encode(42, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                                           px4_modes.encode('OFFBOARD')))
+    client.send(client.mav.command_long_encode(client.target + 1, 1, arm, 0, 1, 0, 0, 0, 0, 0, 0))  # not us either
     time.sleep(1.5)
     assert len(client.acks) == acks_before, 'messages for other systems must not be answered'
     assert not client.armed() and client.mode() == 'AUTO.LOITER'
@@ -366,11 +389,11 @@ def test_garbage_and_other_systems_change_nothing(start_sim):
 
 
 def test_bad_setpoints_are_rejected(start_sim):
-    _, client = start_sim(20, *FAST)
+    _, client = start_sim(*FAST)
     time.sleep(1.2)
-    bad = [client.setpoint(0, 0, -2, frame=7),                      # LOCAL_OFFSET_NED
-           client.setpoint(0, 0, -2, type_mask=0x9F8 | 512),        # FORCE
-           client.setpoint(0, 0, -2, type_mask=0x1FF),              # nothing used
+    bad = [client.setpoint(0, 0, -2, frame=mavlink.MAV_FRAME_LOCAL_OFFSET_NED),
+           client.setpoint(0, 0, -2, type_mask=POSITION_AND_YAW | mavlink.POSITION_TARGET_TYPEMASK_FORCE_SET),
+           client.setpoint(0, 0, -2, type_mask=IGNORE_ALL_VECTORS),  # nothing used
            client.setpoint(0, 0, math.inf)]
     for _ in range(30):
         for msg in bad:
@@ -383,12 +406,10 @@ def test_bad_setpoints_are_rejected(start_sim):
 def test_rejects_bad_command_line():
     import subprocess
     import sys
-    from conftest import REPO
     script = os.path.join(REPO, 'scripts', 'sim_px4.py')
-    env = dict(os.environ, PYTHONPATH=os.path.join(REPO, 'src'))
     for args, words in ((['NOT_A_PARAM=1'], 'unknown parameter'), (['COM_OF_LOSS_T=-3'], 'COM_OF_LOSS_T'),
                         (['--home', '95,0,0'], 'home'), (['-i', '-1'], 'instance')):
-        out = subprocess.run([sys.executable, script] + args, env=env, capture_output=True, text=True, timeout=20)
+        out = subprocess.run([sys.executable, script] + args, capture_output=True, text=True, timeout=20)
         assert out.returncode != 0, args
         assert words in out.stdout + out.stderr, (args, out.stdout + out.stderr)
         assert 'Traceback' not in out.stderr
@@ -396,7 +417,8 @@ def test_rejects_bad_command_line():
 
 def test_ack_is_addressed_to_the_sender(start_sim):
     """COMMAND_ACK goes back to the sender's system and component (and unknown commands are UNSUPPORTED)."""
-    _, client = start_sim(21, *FAST)
-    client.send(client.mav.command_long_encode(client.target, 1, 31000, 0, 0, 0, 0, 0, 0, 0, 0))
-    ack = client.wait_for(lambda: next((a for _, a in client.acks if a.command == 31000), None), 2.0, 'ACK')
-    assert (ack.target_system, ack.target_component) == (255, 190)
+    _, client = start_sim(*FAST)
+    unsupported = mavlink.MAV_CMD_WAYPOINT_USER_1
+    client.send(client.mav.command_long_encode(client.target, 1, unsupported, 0, 0, 0, 0, 0, 0, 0, 0))
+    ack = client.wait_for(lambda: next((a for _, a in client.acks if a.command == unsupported), None), 2.0, 'ACK')
+    assert (ack.target_system, ack.target_component) == (255, mavlink.MAV_COMP_ID_MISSIONPLANNER)
