@@ -7,13 +7,6 @@ modes) and by the simulated PX4 (to encode them), so both agree by construction.
 
 from offboard_py.dialect import mavlink
 
-CUSTOM_MODE_ENABLED = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-AUTO_ENABLED = mavlink.MAV_MODE_FLAG_AUTO_ENABLED
-GUIDED_ENABLED = mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
-STABILIZE_ENABLED = mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
-MANUAL_INPUT_ENABLED = mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
-SAFETY_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
-
 # PX4 main modes (px4_custom_mode.h; PX4's own enums, not MAVLink's)
 MAIN_MANUAL, MAIN_ALTCTL, MAIN_POSCTL, MAIN_AUTO, MAIN_ACRO, MAIN_OFFBOARD, MAIN_STABILIZED, MAIN_RATTITUDE = range(1, 9)
 # PX4 AUTO sub-modes (px4_custom_mode.h)
@@ -64,22 +57,23 @@ def decode(custom_mode):
 
 def mode_string(base_mode, custom_mode):
     """The string mavros shows in State.mode for a PX4 HEARTBEAT."""
-    if not base_mode & CUSTOM_MODE_ENABLED:
+    if not base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
         return 'MODE(0x%2X)' % base_mode  # mavros's own format, padding included
     return decode(custom_mode) or 'CMODE(%d)' % custom_mode
 
 
 def base_mode_flags(mode, armed):
     """HEARTBEAT.base_mode as PX4 sets it for a multicopter in `mode`."""
-    flags = CUSTOM_MODE_ENABLED
+    flags = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
     if armed:
-        flags |= SAFETY_ARMED
+        flags |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
     if mode in MANUAL_MODES:
-        flags |= MANUAL_INPUT_ENABLED
+        flags |= mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
         if mode != 'ACRO':  # ACRO controls rates, not attitude
-            flags |= STABILIZE_ENABLED
+            flags |= mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
     elif mode.startswith('AUTO.'):
-        flags |= AUTO_ENABLED | GUIDED_ENABLED | STABILIZE_ENABLED
+        flags |= (mavlink.MAV_MODE_FLAG_AUTO_ENABLED | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
+                  | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED)
     elif mode == 'OFFBOARD':
-        flags |= STABILIZE_ENABLED
+        flags |= mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
     return flags

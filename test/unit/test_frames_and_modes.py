@@ -5,6 +5,9 @@ import math
 import pytest
 
 from offboard_py import frames, px4_modes
+from offboard_py.dialect import mavlink
+
+CUSTOM = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 
 
 def test_position_enu_ned_swap():
@@ -54,13 +57,13 @@ def test_rotate():
 def test_mode_table(mode, main, sub):
     custom = (main << 16) | (sub << 24)
     assert px4_modes.encode(mode) == custom
-    assert px4_modes.mode_string(1, custom) == mode
+    assert px4_modes.mode_string(CUSTOM, custom) == mode
 
 
 def test_mode_strings_for_odd_heartbeats():
     assert px4_modes.encode('AUTO.LOITER') == 50593792  # what PX4 SITL boots in
-    assert px4_modes.mode_string(1, 4 << 16) == 'AUTO.MISSION'  # AUTO without sub-mode
-    assert px4_modes.mode_string(1, 99 << 16) == 'CMODE(%d)' % (99 << 16)
+    assert px4_modes.mode_string(CUSTOM, 4 << 16) == 'AUTO.MISSION'  # AUTO without sub-mode
+    assert px4_modes.mode_string(CUSTOM, 99 << 16) == 'CMODE(%d)' % (99 << 16)
     assert px4_modes.mode_string(0x5C, 0) == 'MODE(0x5C)'
     assert px4_modes.mode_string(0x08, 0) == 'MODE(0x 8)'
 
