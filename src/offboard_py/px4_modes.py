@@ -38,8 +38,12 @@ MANUAL_MODES = frozenset(('MANUAL', 'ALTCTL', 'POSCTL', 'ACRO', 'STABILIZED', 'R
 
 def encode(mode):
     """custom_mode for a mode string; KeyError for an unknown one."""
-    main, sub = MODES[mode]
-    return (main << 16) | (sub << 24)
+    return join(*MODES[mode])
+
+
+def join(main_mode, sub_mode):
+    """custom_mode from PX4's main and sub mode numbers."""
+    return (int(main_mode) << 16) | (int(sub_mode) << 24)
 
 
 def split(custom_mode):

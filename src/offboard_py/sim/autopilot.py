@@ -12,7 +12,7 @@ import math
 import select
 import time
 
-from offboard_py import param_codec
+from offboard_py import param_codec, px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
 from offboard_py.signing import SigningKeyError, read_signing_key, write_signing_key
@@ -148,7 +148,7 @@ class SimulatedPx4:
         if msg.target_system != self.system_id:
             self.counters['ignored_other_system'] += 1
             return
-        main, sub = (msg.custom_mode >> 16) & 0xFF, (msg.custom_mode >> 24) & 0xFF
+        main, sub = px4_modes.split(msg.custom_mode)
         result = self.flight.request_base_mode(msg.base_mode, main, sub, self.t())
         # PX4 answers the SET_MODE message as DO_SET_MODE
         self._ack(msg, mavlink.MAV_CMD_DO_SET_MODE, result)

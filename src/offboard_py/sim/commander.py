@@ -116,7 +116,7 @@ class Commander:
     def request_base_mode(self, base_mode, main_mode, sub_mode, now_s):
         """DO_SET_MODE / SET_MODE fields -> request_mode."""
         if base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            mode = px4_modes.decode((int(main_mode) << 16) | (int(sub_mode) << 24))
+            mode = px4_modes.decode(px4_modes.join(main_mode, sub_mode))
         elif base_mode & mavlink.MAV_MODE_FLAG_AUTO_ENABLED:
             mode = 'AUTO.MISSION'
         elif base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED:
