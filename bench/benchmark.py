@@ -23,6 +23,8 @@ import rospy
 from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import State
 
+from offboard_py.master import MasterTimeout, wait_for_master
+from offboard_py.phases import PhaseWatcher
 from offboard_py.streamstats import latencies_ms, percentile, stream_quality
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
@@ -30,35 +32,24 @@ CLK_TCK = os.sysconf('SC_CLK_TCK')
 
 
 class Watch:
-    """Phase times of one vehicle, seconds from the launch."""
+    """The phases of one vehicle (offboard_py.phases), and optionally its setpoint header stamps."""
 
     def __init__(self, ns, t0, stamps=None):
-        self.t0, self.phases, self.z, self.stamps = t0, {}, None, stamps
-        self.subs = [rospy.Subscriber(ns + '/mavros/state', State, self._state),
-                     rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self._pose)]
+        self.watcher = PhaseWatcher(t0)
+        self.subs = [rospy.Subscriber(ns + '/mavros/state', State, self.watcher.on_state),
+                     rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self.watcher.on_pose)]
         if stamps is not None:
             self.subs.append(rospy.Subscriber(ns + '/mavros/setpoint_position/local', PoseStamped,
                                               lambda m: stamps.append(m.header.stamp.to_nsec()), tcp_nodelay=True))
 
+    @property
+    def phases(self):
+        """Seconds from the launch to connected, offboard, armed and hover (those reached)."""
+        return self.watcher.first
+
     def close(self):
         for sub in self.subs:
             sub.unregister()
-
-    def _mark(self, phase):
-        self.phases.setdefault(phase, time.monotonic() - self.t0)
-
-    def _state(self, msg):
-        if msg.connected:
-            self._mark('connected')
-        if msg.mode == 'OFFBOARD':
-            self._mark('offboard')
-        if msg.armed:
-            self._mark('armed')
-
-    def _pose(self, msg):
-        self.z = msg.pose.position.z
-        if 'armed' in self.phases and abs(self.z - 2.0) <= 0.1:
-            self._mark('hover')
 
 
 def processes(n):
@@ -163,11 +154,14 @@ def main():
     if not rosgraph.is_master_online():
         core = subprocess.Popen(['roscore'], stdout=open(os.path.join(logdir, 'roscore.log'), 'w'),
                                 stderr=subprocess.STDOUT, start_new_session=True)
-        deadline = time.monotonic() + 30.0
-        while not rosgraph.is_master_online():
-            if time.monotonic() > deadline or core.poll() is not None:
-                p.error('roscore did not start within 30 s (see %s/roscore.log)' % logdir)
-            time.sleep(0.2)
+        def master_up_or_roscore_gone():
+            return rosgraph.is_master_online() or core.poll() is not None
+        try:  # we start the master: no "is roscore running?" while it comes up
+            wait_for_master('benchmark', 30.0, is_online=master_up_or_roscore_gone, say=lambda text: None)
+        except MasterTimeout as err:
+            p.error('%s (see %s/roscore.log)' % (err, logdir))
+        if core.poll() is not None:
+            p.error('roscore exited with code %s (see %s/roscore.log)' % (core.returncode, logdir))
     rospy.init_node('benchmark', anonymous=True, disable_signals=True)
     try:
         return _measure(args, scale, logdir)

@@ -17,43 +17,43 @@ import sys
 import threading
 import time
 
+from offboard_py.master import MasterTimeout, wait_for_master
+from offboard_py.phases import PhaseWatcher
+
 HOLD_TOLERANCE_M = 0.1
+MASTER_TIMEOUT_S = 30.0
 BAG_TOPICS = ['/mavros/state', '/mavros/extended_state', '/mavros/local_position/pose',
               '/mavros/setpoint_position/local', '/rosout']
 
 
+EVENT_LABELS = {'connected': 'FCU connected', 'offboard': 'OFFBOARD', 'armed': 'armed'}
+
+
 class Recorder:
-    """What the demo saw, with times relative to its start."""
+    """What the demo saw, with times relative to its start: the phases, altitude and setpoint."""
 
     def __init__(self, t0):
-        self.t0 = t0
+        self.phases = PhaseWatcher(t0)
         self.lock = threading.Lock()
         self.altitude = []   # (t, z ENU)
         self.setpoint = []   # (t, z ENU)
-        self.events = []     # (t, label)
-        self.mode, self.armed, self.connected = '', False, False
 
     def now(self):
-        return time.monotonic() - self.t0
-
-    def on_state(self, msg):
-        with self.lock:
-            t = self.now()
-            if msg.connected and not self.connected:
-                self.events.append((t, 'FCU connected'))
-            if msg.mode == 'OFFBOARD' and self.mode != 'OFFBOARD':
-                self.events.append((t, 'OFFBOARD'))
-            if msg.armed and not self.armed:
-                self.events.append((t, 'armed'))
-            self.mode, self.armed, self.connected = msg.mode, msg.armed, msg.connected
+        return self.phases.now()
 
     def on_pose(self, msg):
+        self.phases.on_pose(msg)
         with self.lock:
             self.altitude.append((self.now(), msg.pose.position.z))
 
     def on_setpoint(self, msg):
         with self.lock:
             self.setpoint.append((self.now(), msg.pose.position.z))
+
+    def events(self):
+        """(t, label) of each connection, OFFBOARD and arming, for the plot."""
+        with self.phases.lock:
+            return [(t, EVENT_LABELS[phase]) for t, phase in self.phases.events]
 
     def z(self):
         return self.altitude[-1][1] if self.altitude else float('nan')
@@ -64,7 +64,7 @@ class Recorder:
     def held_for(self, tolerance_m):
         """Seconds the altitude has stayed within tolerance of the latest setpoint (while armed OFFBOARD)."""
         target = self.target()
-        if target is None or not (self.armed and self.mode == 'OFFBOARD'):
+        if target is None or not (self.phases.armed and self.phases.mode == 'OFFBOARD'):
             return 0.0
         with self.lock:
             end = self.now()
@@ -76,8 +76,8 @@ class Recorder:
         return end - start
 
     def status(self):
-        return 't=%5.1fs  %-12s %-8s  alt %5.2f m' % (self.now(), self.mode or 'no FCU',
-                                                       'ARMED' if self.armed else 'disarmed', self.z())
+        return 't=%5.1fs  %-12s %-8s  alt %5.2f m' % (self.now(), self.phases.mode or 'no FCU',
+                                                       'ARMED' if self.phases.armed else 'disarmed', self.z())
 
 
 def plot(recorder, path):
@@ -86,7 +86,8 @@ def plot(recorder, path):
     import matplotlib.pyplot as plt
 
     with recorder.lock:
-        alt, sp, events = list(recorder.altitude), list(recorder.setpoint), list(recorder.events)
+        alt, sp = list(recorder.altitude), list(recorder.setpoint)
+    events = recorder.events()
     fig, ax = plt.subplots(figsize=(9, 4.5), dpi=110)
     if sp:
         ax.step([t for t, _ in sp], [z for _, z in sp], where='post', linestyle='--', color='tab:orange',
@@ -156,15 +157,23 @@ def main(argv=None):
         from geometry_msgs.msg import PoseStamped
         from mavros_msgs.msg import State
 
-        deadline = time.monotonic() + 30.0
-        while not rosgraph.is_master_online():
-            if launch.poll() is not None or time.monotonic() > deadline or interrupted:
-                print('the ROS master did not come up within 30 s; roslaunch output: %s' % args.log)
-                return 1
-            time.sleep(0.2)
+        def master_up_or_no_point_waiting():
+            return rosgraph.is_master_online() or launch.poll() is not None or bool(interrupted)
+        try:  # roslaunch starts the master: no "is roscore running?" while it does
+            wait_for_master('takeoff_demo', MASTER_TIMEOUT_S, is_online=master_up_or_no_point_waiting,
+                            say=lambda text: None)
+        except MasterTimeout as err:
+            print('%s; roslaunch output: %s' % (err, args.log))
+            return 1
+        if launch.poll() is not None:
+            print('roslaunch exited (code %s) before the ROS master came up; see %s' % (launch.returncode, args.log))
+            return 1
+        if interrupted:
+            print('interrupted while waiting for the ROS master')
+            return 1
         rospy.init_node('takeoff_demo', disable_signals=True)
         rec = Recorder(t0)
-        rospy.Subscriber('/mavros/state', State, rec.on_state)
+        rospy.Subscriber('/mavros/state', State, rec.phases.on_state)
         rospy.Subscriber('/mavros/local_position/pose', PoseStamped, rec.on_pose)
         rospy.Subscriber('/mavros/setpoint_position/local', PoseStamped, rec.on_setpoint)
         if args.bag:
