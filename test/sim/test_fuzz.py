@@ -50,8 +50,8 @@ def hostile_frames(rng, count, target):
     ]
     auto, ready = px4_modes.MAIN_AUTO, px4_modes.SUB_READY
     rejected_by_px4 = [
-        v2.set_mode_encode(target, CUSTOM, (99 << 16)),                                 # no such main mode
-        v2.set_mode_encode(target, CUSTOM, (auto << 16) | (77 << 24)),                  # no such sub mode
+        v2.set_mode_encode(target, CUSTOM, px4_modes.join(99, 0)),                      # no such main mode
+        v2.set_mode_encode(target, CUSTOM, px4_modes.join(auto, 77)),                   # no such sub mode
         v2.command_long_encode(target, 1, SET_MODE, 0, CUSTOM, auto, ready, 0, 0, 0, 0),  # AUTO.READY: refused
         v2.command_long_encode(target, 1, ARM, 0, 0.5, 0, 0, 0, 0, 0, 0),               # arm with param1 0.5
         v2.command_long_encode(target, 1, SET_MODE, 0, nan, nan, nan, 0, 0, 0, 0),      # NaN mode
