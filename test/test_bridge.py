@@ -240,7 +240,7 @@ class BridgeTest(OffboardTestCase):
         self.assertLessEqual(time.monotonic() - stopped, 3.0 + 1.0 + 0.5)
         self.assertGreaterEqual(time.monotonic() - stopped, 2.4, 'not before conn/timeout')
         s = self.silent.state
-        self.assertEqual((s.armed, s.guided, s.mode, s.system_status), (False, False, '', 0))
+        self.assertEqual((s.armed, s.guided, s.mode, s.system_status), (False, False, '', mavlink.MAV_STATE_UNINIT))
         self.fcu.beating = True
         self.wait_for_connected(self.silent, 3.0)
 

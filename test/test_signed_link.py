@@ -40,7 +40,7 @@ class SignedLinkTest(OffboardTestCase):
             sock.sendto(spoof.radio_status_encode(200, 190, 0, 100, 90, 0, 0).pack(spoof), bridge)
             sock.sendto(gcs.command_long_encode(target, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0,
                                                 0, ARM_DISARM_FORCE_MAGIC, 0, 0, 0, 0, 0).pack(gcs), fcu)
-            sock.sendto(gcs.set_mode_encode(target, 1, land).pack(gcs), fcu)
+            sock.sendto(gcs.set_mode_encode(target, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, land).pack(gcs), fcu)
             time.sleep(0.05)
         time.sleep(1.0)
         with vehicle.lock:
