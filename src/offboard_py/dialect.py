@@ -11,7 +11,9 @@ from pymavlink.dialects.v20 import development as mavlink  # noqa: F401  (re-exp
 
 # Names from MAVLink's XML that this pymavlink release does not carry, named once here.
 MAV_CMD_INJECT_FAILURE = 420   # common.xml: inject a failure (PX4, with SYS_FAILURE_EN)
-FAILURE_TYPE_OK = 0            # common.xml FAILURE_TYPE: no failure (param2 of MAV_CMD_INJECT_FAILURE)
+FAILURE_UNIT_SENSOR_GYRO = 0   # common.xml FAILURE_UNIT (param1 of MAV_CMD_INJECT_FAILURE)
+FAILURE_TYPE_OK = 0            # common.xml FAILURE_TYPE (param2): no failure
+FAILURE_TYPE_OFF = 1           # common.xml FAILURE_TYPE: the unit is off
 
 # PX4's "force" magic in COMPONENT_ARM_DISARM param2: arm or disarm whatever the checks say.
 # MAVLink defines the value in the command's documentation, not as an enum.

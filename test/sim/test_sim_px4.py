@@ -10,9 +10,10 @@ import time
 
 from conftest import ACCEPTED, DENIED, FAILED, REPO, TEMPORARILY_REJECTED, UNSUPPORTED, px4_modes
 
-from offboard_py.dialect import FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
+from offboard_py.dialect import (FAILURE_TYPE_OFF, FAILURE_TYPE_OK, FAILURE_UNIT_SENSOR_GYRO, MAV_CMD_INJECT_FAILURE,
+                                 mavlink)
 from offboard_py.testing import ports
-from offboard_py.testing.typemask import IGNORE_ALL_VECTORS, POSITION_AND_YAW
+from offboard_py.testing.typemask import IGNORE_ACCELERATION, IGNORE_ALL_VECTORS, POSITION_AND_YAW
 
 FAST = ('--ready-delay', '1')
 HOLD_FLAGS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_AUTO_ENABLED
@@ -21,7 +22,6 @@ ARMED_OFFBOARD_FLAGS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_
                         | mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 NAN4 = (math.nan,) * 4
 # common.xml's FAILURE_UNIT and FAILURE_TYPE values not in pymavlink 2.4.49 (nor in offboard_py.dialect)
-FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OFF = 0, 1
 REAL32, INT32 = mavlink.MAV_PARAM_TYPE_REAL32, mavlink.MAV_PARAM_TYPE_INT32
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 
@@ -392,7 +392,9 @@ def test_bad_setpoints_are_rejected(start_sim):
     _, client = start_sim(*FAST)
     time.sleep(1.2)
     bad = [client.setpoint(0, 0, -2, frame=mavlink.MAV_FRAME_LOCAL_OFFSET_NED),
-           client.setpoint(0, 0, -2, type_mask=POSITION_AND_YAW | mavlink.POSITION_TARGET_TYPEMASK_FORCE_SET),
+           # a force: FORCE_SET with the acceleration fields in use
+           client.setpoint(0, 0, -2, type_mask=POSITION_AND_YAW & ~IGNORE_ACCELERATION
+                           | mavlink.POSITION_TARGET_TYPEMASK_FORCE_SET),
            client.setpoint(0, 0, -2, type_mask=IGNORE_ALL_VECTORS),  # nothing used
            client.setpoint(0, 0, math.inf)]
     for _ in range(30):
@@ -401,6 +403,18 @@ def test_bad_setpoints_are_rejected(start_sim):
         time.sleep(0.05)
     assert client.set_mode('OFFBOARD') == ACCEPTED  # disarmed: accepted anyway
     assert client.arm() == TEMPORARILY_REJECTED, 'rejected setpoints must not count as an offboard signal'
+
+
+def test_force_bit_with_acceleration_ignored_is_a_position_setpoint(start_sim):
+    """Measured on PX4 SITL (px4-sitl-measured.md, Answers): taken as a normal position setpoint."""
+    _, client = start_sim(*FAST)
+    time.sleep(1.2)
+    with_force = client.setpoint(0, 0, -2, type_mask=POSITION_AND_YAW | mavlink.POSITION_TARGET_TYPEMASK_FORCE_SET)
+    for _ in range(10):
+        client.send(with_force)
+        time.sleep(0.05)
+    assert client.set_mode('OFFBOARD') == ACCEPTED
+    assert client.arm() == ACCEPTED, 'the setpoint counts as the offboard signal'
 
 
 def test_rejects_bad_command_line():

@@ -11,16 +11,11 @@ from offboard_py.sim import offboard_input
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.params import ParamRejected, ParamStore
+from offboard_py.testing.typemask import IGNORE_ALL_VECTORS, IGNORE_VELOCITY, POSITION_AND_YAW, VELOCITY_ONLY
 
 NAN = float('nan')
 M = mavlink
-IGNORE_VELOCITY = M.POSITION_TARGET_TYPEMASK_VX_IGNORE | M.POSITION_TARGET_TYPEMASK_VY_IGNORE | \
-    M.POSITION_TARGET_TYPEMASK_VZ_IGNORE
-IGNORE_POSITION = M.POSITION_TARGET_TYPEMASK_X_IGNORE | M.POSITION_TARGET_TYPEMASK_Y_IGNORE | \
-    M.POSITION_TARGET_TYPEMASK_Z_IGNORE
-IGNORE_ACCELERATION = M.POSITION_TARGET_TYPEMASK_AX_IGNORE | M.POSITION_TARGET_TYPEMASK_AY_IGNORE | \
-    M.POSITION_TARGET_TYPEMASK_AZ_IGNORE
-POS_YAW = IGNORE_VELOCITY | IGNORE_ACCELERATION | M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # mavros's 0x9F8
+POS_YAW = POSITION_AND_YAW
 ACCEPTED, TEMPORARILY_REJECTED, DENIED = M.MAV_RESULT_ACCEPTED, M.MAV_RESULT_TEMPORARILY_REJECTED, M.MAV_RESULT_DENIED
 
 
@@ -48,8 +43,7 @@ def test_setpoint_decoding():
     sp = position_setpoint(1, 2, -3)
     assert sp.position == (1.0, 2.0, -3.0) and all(math.isnan(v) for v in sp.velocity)
     assert sp.yaw == 0.0 and math.isnan(sp.yaw_rate)
-    velocity_only = IGNORE_POSITION | IGNORE_ACCELERATION | M.POSITION_TARGET_TYPEMASK_YAW_IGNORE
-    body = offboard_input.offboard_setpoint(M.MAV_FRAME_BODY_NED, velocity_only, (5, 5, 5), (1, 0, 0), (0, 0, 0),
+    body = offboard_input.offboard_setpoint(M.MAV_FRAME_BODY_NED, VELOCITY_ONLY, (5, 5, 5), (1, 0, 0), (0, 0, 0),
                                             0, 0, math.pi / 2)
     assert all(math.isnan(v) for v in body.position), 'BODY_NED ignores position'
     assert body.velocity[:2] == pytest.approx((0.0, 1.0)), 'body x forward, facing east'
@@ -64,7 +58,7 @@ def test_force_bit_with_acceleration_ignored_is_a_position_setpoint():
 @pytest.mark.parametrize('frame, mask, position, words', [
     (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POS_YAW, (0, 0, -2), 'frame 6'),
     (M.MAV_FRAME_LOCAL_NED, M.POSITION_TARGET_TYPEMASK_FORCE_SET | IGNORE_VELOCITY, (0, 0, -2), 'force'),
-    (M.MAV_FRAME_LOCAL_NED, IGNORE_POSITION | IGNORE_VELOCITY | IGNORE_ACCELERATION, (0, 0, -2), 'no position'),
+    (M.MAV_FRAME_LOCAL_NED, IGNORE_ALL_VECTORS, (0, 0, -2), 'no position'),
     (M.MAV_FRAME_LOCAL_NED, POS_YAW, (0, 0, math.inf), 'infinite'),
     (M.MAV_FRAME_LOCAL_NED, POS_YAW, (NAN, NAN, NAN), 'no position'),
 ])
