@@ -186,19 +186,15 @@ class BridgeTest(OffboardTestCase):
         self.assertGreaterEqual(pull.param_received, 20)
         get = rospy.ServiceProxy('mavros/param/get', ParamGet)
         put = rospy.ServiceProxy('mavros/param/set', ParamSet)
-        self.assertEqual(get(param_id='MIS_TAKEOFF_ALT').value.real, 2.5)
-        req = ParamSetRequest(param_id='MIS_TAKEOFF_ALT')
-        req.value.real = 3.0
-        res = put(req)
-        self.assertTrue(res.success)
-        self.assertEqual(res.value.real, 3.0)
-        self.assertEqual(get(param_id='MIS_TAKEOFF_ALT').value.real, 3.0)
-        self.assertEqual(get(param_id='COM_OBL_RC_ACT').value.integer, 0)
-        req = ParamSetRequest(param_id='COM_OBL_RC_ACT')
-        req.value.integer = 4
-        res = put(req)
-        self.assertTrue(res.success)
-        self.assertEqual(res.value.integer, 4)
+        # floats travel in value.real, integers in value.integer
+        for name, field, default, wanted in (('MIS_TAKEOFF_ALT', 'real', 2.5, 3.0), ('COM_OBL_RC_ACT', 'integer', 0, 4)):
+            self.assertEqual(getattr(get(param_id=name).value, field), default, name)
+            req = ParamSetRequest(param_id=name)
+            setattr(req.value, field, wanted)
+            res = put(req)
+            self.assertTrue(res.success, name)
+            self.assertEqual(getattr(res.value, field), wanted, name)
+            self.assertEqual(getattr(get(param_id=name).value, field), wanted, name)
         self.assertFalse(get(param_id='NO_SUCH_PARAM').success)
 
     def test_08_mission_push_waypoints_clear(self):

@@ -5,7 +5,6 @@ import time
 
 import rospy
 import rostest
-from geometry_msgs.msg import PoseStamped
 
 from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
@@ -17,8 +16,7 @@ class LateFcuTest(OffboardTestCase):
     def test_waits_then_flies(self):
         vehicle = Vehicle('mavros')
         log = RosoutRecorder('/offb_node_py')
-        setpoints = []
-        rospy.Subscriber('mavros/setpoint_position/local', PoseStamped, lambda m: setpoints.append(time.monotonic()))
+        setpoints = vehicle.setpoints
         time.sleep(4.0)
         self.assertFalse(vehicle.state.connected, 'no vehicle yet: %s' % vehicle.describe())
         self.assertEqual(setpoints, [], 'nothing is streamed before the FCU is connected')

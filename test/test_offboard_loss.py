@@ -8,7 +8,6 @@ import time
 import rosnode
 import rospy
 import rostest
-from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import ExtendedState
 
 from offboard_py import px4_modes
@@ -30,8 +29,7 @@ class OffboardLossTest(OffboardTestCase):
     def test_failsafe_when_node_dies(self):
         gcs = MavlinkListener(rospy.get_param('~gcs_port'))  # the ground station on the bridge's gcs_url
         vehicle = Vehicle('mavros')
-        setpoints = []
-        rospy.Subscriber('mavros/setpoint_position/local', PoseStamped, lambda m: setpoints.append(time.monotonic()))
+        setpoints = vehicle.setpoints
         self.wait_for_offboard_and_armed(vehicle, 60.0)
         self.wait_for_altitude(vehicle, 2.0, 0.15, 30.0)
         time.sleep(1.0)

@@ -1,11 +1,8 @@
 #!/usr/bin/env python3
 """The tutorial's flight, end to end: OFFBOARD, armed, 2 m held, and the node said so once each."""
 
-import time
-
 import rospy
 import rostest
-from geometry_msgs.msg import PoseStamped
 
 from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
@@ -17,8 +14,7 @@ class TakeoffTest(OffboardTestCase):
     def test_takeoff_and_hold_2m(self):
         vehicle = Vehicle('mavros')
         log = RosoutRecorder('/offb_node_py')
-        setpoints = []
-        rospy.Subscriber('mavros/setpoint_position/local', PoseStamped, lambda m: setpoints.append(time.monotonic()))
+        setpoints = vehicle.setpoints
         self.wait_for_connected(vehicle, 30.0)
         try:
             self.wait_for_offboard_and_armed(vehicle, rospy.get_param('~deadline', 60.0))

@@ -6,7 +6,6 @@ that fail with what was seen (mode, armed, position) rather than a bare assert, 
 service calls bounded in time. Needs rospy and a node (rospy.init_node) in the caller.
 """
 
-import math
 import threading
 import time
 import unittest
@@ -16,6 +15,8 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from mavros_msgs.msg import ExtendedState, State
 from mavros_msgs.srv import CommandBool, SetMode
 from rosgraph_msgs.msg import Log
+
+from offboard_py import frames
 
 
 class Vehicle:
@@ -31,7 +32,9 @@ class Vehicle:
         self.states = []      # (time, State) history
         self.poses = []       # (time, z ENU)
         self.velocities = []  # (time, vz ENU)
+        self.setpoints = []   # times of the setpoints the node under test sent on setpoint_position/local
         self.subs = [
+            rospy.Subscriber(self.ns + '/setpoint_position/local', PoseStamped, self._on_setpoint),
             rospy.Subscriber(self.ns + '/state', State, self._on_state),
             rospy.Subscriber(self.ns + '/extended_state', ExtendedState, self._on_extended),
             rospy.Subscriber(self.ns + '/local_position/pose', PoseStamped, self._on_pose),
@@ -44,6 +47,9 @@ class Vehicle:
         with self.lock:
             self.state = msg
             self.states.append((time.monotonic(), msg))
+
+    def _on_setpoint(self, _msg):
+        self.setpoints.append(time.monotonic())
 
     def _on_extended(self, msg):
         self.extended_state = msg
@@ -177,4 +183,5 @@ class RosoutRecorder:
 
 
 def yaw_of(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    """Yaw (rad) of a geometry_msgs/Quaternion."""
+    return frames.quaternion_yaw((q.x, q.y, q.z, q.w))
