@@ -115,7 +115,7 @@ def test_failsafe_without_and_with_rc():
         assert c.commander.nav_mode == expected and c.commander.failsafe
         assert t - last <= c.params['COM_OF_LOSS_T'] + 0.02
         assert c.commander.user_mode == 'OFFBOARD', 'the intended mode stays'
-        assert c.commander.system_status() == M.MAV_STATE_CRITICAL
+        assert c.commander.system_status(t) == M.MAV_STATE_CRITICAL
 
 
 def test_land_then_back_to_user_mode_and_auto_disarm():

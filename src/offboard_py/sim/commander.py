@@ -1,8 +1,12 @@
 """The commander of the simulated PX4: modes, arming, the offboard signal, failsafes, timers.
 
 Rules, as current PX4 applies them (../shared/reference/px4-behaviour.md):
-- Boots in AUTO.LOITER, disarmed, STANDBY; arming is refused for `ready_delay_s` while
-  the estimator settles ("Ready for takeoff" after about 5 s on PX4 SITL).
+- Boots in AUTO.LOITER, disarmed; arming is refused for `ready_delay_s` while the
+  estimator settles ("Ready for takeoff" after about 5 s on PX4 SITL).
+- HEARTBEAT's system_status as PX4 main reports it (px4-sitl-measured.md): UNINIT while the
+  pre-flight checks do not pass (before ready, with an injected failure, and for
+  DISARM_SETTLE_S after a disarm), STANDBY disarmed and ready, ACTIVE armed, CRITICAL in a
+  failsafe. `prearm_ok()` is the same verdict, for SYS_STATUS's PREARM_CHECK health bit.
 - Two modes are tracked, as PX4 does: the mode the user chose (`user_mode`, shown as
   CURRENT_MODE.intended_custom_mode) and the mode flying now (`nav_mode`), which differs
   during a failsafe. After a disarm the vehicle returns to the last mode the user chose
@@ -44,6 +48,10 @@ RCL_ACTIONS = {0: 'AUTO.LOITER', 1: 'AUTO.LOITER', 2: 'AUTO.RTL', 3: 'AUTO.LAND'
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
+# PX4 SITL reports UNINIT "again after a disarm" (measured) until its arming checks have run
+# again. We model that as a short settle after each disarm; it changes what is reported
+# (system_status, PREARM_CHECK), not whether arming is accepted.
+DISARM_SETTLE_S = 1.5  # long enough for the 1 Hz HEARTBEAT to show it, as measured
 
 
 class Commander:
@@ -57,6 +65,7 @@ class Commander:
         self.has_mission = False   # a valid mission is loaded, kept current by the flight stack
         self.armed = False
         self.armed_s = None
+        self.disarmed_s = None
         self.takeoff_detected = False
         self.landed_s = None
         self.failsafe = False
@@ -67,13 +76,18 @@ class Commander:
 
     # -- what the link reports ---------------------------------------------------------------
 
-    def system_status(self):
-        if not self.armed:
-            return mavlink.MAV_STATE_STANDBY
-        return mavlink.MAV_STATE_CRITICAL if self.failsafe else mavlink.MAV_STATE_ACTIVE
+    def system_status(self, now_s):
+        if self.armed:
+            return mavlink.MAV_STATE_CRITICAL if self.failsafe else mavlink.MAV_STATE_ACTIVE
+        return mavlink.MAV_STATE_STANDBY if self.prearm_ok(now_s) else mavlink.MAV_STATE_UNINIT
 
     def ready(self, now_s):
         return now_s - self.boot_s >= self.ready_delay_s
+
+    def prearm_ok(self, now_s):
+        """The pre-flight (arming) checks pass: ready, no injected failure, not just disarmed."""
+        settling = self.disarmed_s is not None and now_s - self.disarmed_s < DISARM_SETTLE_S
+        return self.ready(now_s) and not self.failures and not settling
 
     def offboard_signal(self, now_s):
         return self.offboard_s is not None and now_s - self.offboard_s <= self.params['COM_OF_LOSS_T']
@@ -153,7 +167,7 @@ class Commander:
         if not force and not self.landed:
             self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Disarming denied: not landed')
             return DENIED
-        self._disarm('commanded')
+        self._disarm('commanded', now_s)
         return ACCEPTED
 
     def _arming_refusal(self, now_s):
@@ -180,8 +194,8 @@ class Commander:
         self.events.append(ev.ArmingChanged(True, 'commanded'))
         self._say(mavlink.MAV_SEVERITY_INFO, 'Armed')
 
-    def _disarm(self, why):
-        self.armed = False
+    def _disarm(self, why, now_s):
+        self.armed, self.disarmed_s = False, now_s
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(False, why))
         self._say(mavlink.MAV_SEVERITY_INFO, 'Disarmed (%s)' % why)
@@ -214,7 +228,7 @@ class Commander:
             action = RCL_ACTIONS.get(self.params['NAV_RCL_ACT'], 'AUTO.RTL')
         self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Failsafe: no offboard signal, activating %s' % action)
         if action in ('disarm', 'terminate'):  # motors off: in the air the vehicle falls
-            self._disarm('offboard signal lost, %s' % action)
+            self._disarm('offboard signal lost, %s' % action, now_s)
             return
         self._enter(action, failsafe=True)
 
@@ -232,11 +246,11 @@ class Commander:
         if not self.takeoff_detected:
             limit = p['COM_DISARM_PRFLT']
             if limit > 0 and now_s - self.armed_s >= limit:
-                self._disarm('no takeoff within COM_DISARM_PRFLT')
+                self._disarm('no takeoff within COM_DISARM_PRFLT', now_s)
             return
         if self.landed_s is None:
             self.landed_s = now_s
             self._say(mavlink.MAV_SEVERITY_INFO, 'Landing detected')
         limit = p['COM_DISARM_LAND']
         if limit >= 0 and now_s - self.landed_s >= limit:
-            self._disarm('landed')
+            self._disarm('landed', now_s)

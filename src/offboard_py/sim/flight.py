@@ -5,11 +5,13 @@ the mode flying now (the latest offboard setpoint in OFFBOARD, else the navigato
 vehicle model, then the land detector's word back to the commander. Events from the
 commander and the navigator are routed here at once (arming starts the motors, a mode
 change moves the navigator) and queued in `events` for the autopilot to say on the link.
-`status()` is the read-only picture telemetry is built from.
+`status()` is the read-only picture telemetry is built from, with what the controller tracks
+and the battery.
 
 Pure: time is passed in; no MAVLink I/O, no clock.
 """
 
+import math
 from typing import NamedTuple
 
 from offboard_py import px4_modes
@@ -17,7 +19,34 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim.commander import Commander
 from offboard_py.sim.navigator import Navigator
-from offboard_py.sim.vehicle import Vehicle
+from offboard_py.sim.vehicle import GRAVITY, Vehicle
+
+NAN3 = (float('nan'),) * 3
+HOVER_THRUST = 0.5  # normalised thrust that holds the vehicle (PX4's MPC_THR_HOVER default)
+
+
+class Battery:
+    """A 4S LiPo that is full at boot (16.2 V: 4.05 V a cell, PX4's BAT1_V_CHARGED) and drains
+    linearly while armed, to empty after `endurance_s` of armed time; disarmed it holds its charge."""
+    CELLS = 4
+    CELL_FULL_V, CELL_EMPTY_V = 4.05, 3.5  # PX4's BAT1_V_CHARGED, BAT1_V_EMPTY
+
+    def __init__(self, endurance_s=1200.0):
+        self.endurance_s = endurance_s
+        self.armed_time_s = 0.0
+
+    def step(self, dt, armed):
+        if armed:
+            self.armed_time_s += dt
+
+    @property
+    def remaining(self):
+        """Charge left, 0..1."""
+        return max(0.0, 1.0 - self.armed_time_s / self.endurance_s)
+
+    @property
+    def voltage_v(self):
+        return self.CELLS * (self.CELL_EMPTY_V + (self.CELL_FULL_V - self.CELL_EMPTY_V) * self.remaining)
 
 
 class Status(NamedTuple):
@@ -27,7 +56,8 @@ class Status(NamedTuple):
     armed: bool
     failsafe: bool
     system_status: int
-    ready: bool
+    ready: bool           # the estimator is good (home is set)
+    prearm_ok: bool       # the arming checks pass (SYS_STATUS's PREARM_CHECK)
     landed_state: int
     position: tuple       # local NED, m
     velocity: tuple       # local NED, m/s
@@ -37,6 +67,14 @@ class Status(NamedTuple):
     specific_force: tuple  # FRD, m/s^2: what an accelerometer reads
     mission_seq: int
     mission_count: int
+    position_setpoint: tuple      # local NED, m; NaN where not controlled (all NaN: motors not flying)
+    velocity_setpoint: tuple      # local NED, m/s; NaN likewise
+    acceleration_setpoint: tuple  # local NED, m/s^2, commanded; NaN likewise
+    yaw_setpoint: float           # rad
+    yaw_rate_setpoint: float      # rad/s, NaN when yaw is controlled
+    thrust: float                 # normalised 0..1 (HOVER_THRUST holds the vehicle)
+    battery_remaining: float      # 0..1
+    battery_voltage: float        # V
 
     @property
     def custom_mode(self):
@@ -62,6 +100,7 @@ class Flight:
         self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
         self.navigator = Navigator(params, frame, self.vehicle)
         self.offboard_sp = None
+        self.battery = Battery()
         self.events = []
 
     # -- requests (each returns a MAV_RESULT) --------------------------------------------------
@@ -118,6 +157,7 @@ class Flight:
             sp = self.navigator.setpoint(c.nav_mode, c.armed, now_s)
             self._route(now_s)
         v.step(dt, sp, now_s)
+        self.battery.step(dt, c.armed)
         c.landed = v.landed
         c.check_landing(now_s)
         self._route(now_s)
@@ -162,7 +202,17 @@ class Flight:
         return mavlink.MAV_LANDED_STATE_IN_AIR
 
     def status(self, now_s):
-        c, v, m = self.commander, self.vehicle, self.navigator.mission
-        return Status(c.nav_mode, c.user_mode, c.armed, c.failsafe, c.system_status(), c.ready(now_s),
-                      self.landed_state(), tuple(v.position), tuple(v.velocity), v.yaw, v.yaw_rate, v.attitude(),
-                      v.specific_force_body(), m.seq, len(m.items))
+        c, v, m, b = self.commander, self.vehicle, self.navigator.mission, self.battery
+        sp, acc = v.setpoint, v.acceleration_setpoint
+        if sp is None:
+            position_sp = velocity_sp = acc_sp = NAN3
+            yaw_sp, yaw_rate_sp, thrust = v.yaw, float('nan'), 0.0
+        else:
+            position_sp, velocity_sp, acc_sp = sp.position, v.velocity_setpoint, tuple(acc)
+            yaw_sp = sp.yaw if sp.yaw == sp.yaw else v.yaw
+            yaw_rate_sp = float('nan') if sp.yaw == sp.yaw else v.yaw_rate
+            thrust = min(1.0, math.sqrt(acc[0] ** 2 + acc[1] ** 2 + (acc[2] - GRAVITY) ** 2) * HOVER_THRUST / GRAVITY)
+        return Status(c.nav_mode, c.user_mode, c.armed, c.failsafe, c.system_status(now_s), c.ready(now_s),
+                      c.prearm_ok(now_s), self.landed_state(), tuple(v.position), tuple(v.velocity), v.yaw,
+                      v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
+                      position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v)

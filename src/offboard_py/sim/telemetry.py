@@ -1,98 +1,263 @@
-"""Telemetry of the simulated PX4: the onboard-link streams at PX4's rates, and their messages.
+"""Telemetry of the simulated PX4: PX4's streams and rates per link, and their messages.
 
-`Streams` keeps one interval per message id (PX4 v1.12 onboard rates by default) and says
-which are due; MAV_CMD_SET_MESSAGE_INTERVAL changes an interval, 0 restores the default,
--1 stops a stream. HEARTBEAT is fixed at 1 Hz, as on PX4 (setting it answers FAILED).
+`Streams` keeps one interval per message a link sends (`ONBOARD_RATES_HZ`: PX4's "onboard"
+mode, as measured on PX4 SITL's offboard-API link; `GCS_RATES_HZ`: PX4's "normal" mode, the
+mode of SITL's ground-station link) and says which are due. MAV_CMD_SET_MESSAGE_INTERVAL
+changes an interval for any message the simulator can build, 0 restores the link's default
+(which may be off), -1 stops it. HEARTBEAT is fixed at 1 Hz, as on PX4 (setting it answers
+FAILED).
 `TelemetryBuilder.build(name, status, now_s)` makes each message from the flight's read-only
-Status (sim.flight); it never sees the commander or the vehicle model.
+Status (sim.flight); it never sees the commander or the vehicle model. What several messages
+share (global position, Euler angles) is computed once per Status, i.e. once per step.
+Not sent (pymavlink's dialect lacks them): LINK_NODE_STATUS, TIME_ESTIMATE_TO_TARGET and
+PX4's EVENT / CURRENT_EVENT_SEQUENCE.
 """
 
 import math
 import time
 
 from offboard_py.dialect import mavlink
+from offboard_py.sim.vehicle import quaternion_from_thrust
 
-# Onboard link rates (Hz) of PX4 v1.12
-DEFAULT_RATES_HZ = {
+# PX4's MAVLINK_MODE_ONBOARD (mavlink_main.cpp) at the rates PX4 SITL sends on its onboard link
+# (../shared/reference/px4-sitl-census.json, e.g. 98.5 measured for the 100 Hz ATTITUDE stream;
+# GPS_RAW_INT follows the simulated GPS: 8 Hz)
+ONBOARD_RATES_HZ = {
     'HEARTBEAT': 1.0,
-    'SYS_STATUS': 1.0,
+    'ATTITUDE': 100.0,
     'ATTITUDE_QUATERNION': 50.0,
     'GLOBAL_POSITION_INT': 50.0,
-    'LOCAL_POSITION_NED': 30.0,
     'HIGHRES_IMU': 50.0,
+    'LOCAL_POSITION_NED': 30.0,
+    'ODOMETRY': 30.0,
+    'TIMESYNC': 10.0,
+    'ATTITUDE_TARGET': 10.0,
+    'POSITION_TARGET_LOCAL_NED': 10.0,
     'ALTITUDE': 10.0,
+    'VFR_HUD': 10.0,
+    'SERVO_OUTPUT_RAW': 10.0,
+    'DISTANCE_SENSOR': 10.0,
+    'GPS_RAW_INT': 8.0,
+    'SYS_STATUS': 5.0,
     'EXTENDED_SYS_STATE': 5.0,
-    'HOME_POSITION': 0.5,
     'MISSION_CURRENT': 1.0,
+    'ESTIMATOR_STATUS': 1.0,
+    'SYSTEM_TIME': 1.0,
+    'PING': 1.0,
+    'SCALED_PRESSURE': 1.0,
+    'OPEN_DRONE_ID_LOCATION': 1.0,
+    'OPEN_DRONE_ID_SYSTEM': 1.0,
+    'HOME_POSITION': 0.5,
+    'BATTERY_STATUS': 0.5,
+    'VIBRATION': 0.5,
+    'CURRENT_MODE': 0.5,
+}
+# PX4's MAVLINK_MODE_NORMAL (mavlink_main.cpp, configure_streams_to_default), the streams of it
+# we can build; MISSION_CURRENT comes from PX4's mission manager on every link at 1 Hz
+GCS_RATES_HZ = {
+    'HEARTBEAT': 1.0,
+    'ATTITUDE': 15.0,
+    'ATTITUDE_QUATERNION': 10.0,
+    'GLOBAL_POSITION_INT': 5.0,
+    'GPS_RAW_INT': 5.0,
+    'VFR_HUD': 4.0,
+    'ATTITUDE_TARGET': 2.0,
+    'POSITION_TARGET_LOCAL_NED': 1.5,
+    'SYS_STATUS': 1.0,
+    'ALTITUDE': 1.0,
+    'EXTENDED_SYS_STATE': 1.0,
+    'LOCAL_POSITION_NED': 1.0,
+    'MISSION_CURRENT': 1.0,
+    'SCALED_PRESSURE': 1.0,
+    'SERVO_OUTPUT_RAW': 1.0,
+    'OPEN_DRONE_ID_LOCATION': 1.0,
+    'OPEN_DRONE_ID_SYSTEM': 1.0,
+    'HOME_POSITION': 0.5,
+    'BATTERY_STATUS': 0.5,
+    'CURRENT_MODE': 0.5,
+    'DISTANCE_SENSOR': 0.5,
+    'ESTIMATOR_STATUS': 0.5,
+    'PING': 0.1,
+    'VIBRATION': 0.1,
 }
 FIXED_RATE = frozenset(('HEARTBEAT',))
 # One-shot messages that MAV_CMD_REQUEST_MESSAGE can ask for besides the streams
 ON_REQUEST = frozenset(('AUTOPILOT_VERSION',))
+# Every message the builder makes: what SET_MESSAGE_INTERVAL and REQUEST_MESSAGE accept
+STREAMABLE = frozenset(ONBOARD_RATES_HZ) | frozenset(GCS_RATES_HZ)
+NAMES_BY_ID = {getattr(mavlink, 'MAVLINK_MSG_ID_' + name): name for name in STREAMABLE | ON_REQUEST}
 
-# MAV_PROTOCOL_CAPABILITY bits we announce
+# AUTOPILOT_VERSION as PX4 main's (0xE8FF)
 CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
                 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE | mavlink.MAV_PROTOCOL_CAPABILITY_FTP
                 | mavlink.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
                 | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
-                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
-                | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
-                | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY)
-PX4_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # v1.15.0 release
+                | mavlink.MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+                | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY)
+PX4_VERSION = 0xFF  # flight_sw_version of PX4 SITL's dev build: no release number, type byte 0xFF
+UID_BASE = int.from_bytes(b'PX4SITL\0', 'big')  # + system id: 64 bits, stable per instance
 # MAV_STANDARD_MODE for CURRENT_MODE
 STANDARD_MODES = {'POSCTL': mavlink.MAV_STANDARD_MODE_POSITION_HOLD, 'ALTCTL': mavlink.MAV_STANDARD_MODE_ALTITUDE_HOLD,
                   'AUTO.RTL': mavlink.MAV_STANDARD_MODE_RETURN_HOME, 'AUTO.MISSION': mavlink.MAV_STANDARD_MODE_MISSION,
                   'AUTO.LAND': mavlink.MAV_STANDARD_MODE_LAND, 'AUTO.TAKEOFF': mavlink.MAV_STANDARD_MODE_TAKEOFF}
-# What SYS_STATUS reports present, enabled and healthy
-SENSORS = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
-           | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
-           | mavlink.MAV_SYS_STATUS_SENSOR_GPS)
+
+# SYS_STATUS as PX4 SITL (SIH quadrotor) reports it: present 0x0300402F, enabled 0x0301402F,
+# health 0x1320C83F with PREARM_CHECK while the arming checks pass
+SENSORS_PRESENT = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                   | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+                   | mavlink.MAV_SYS_STATUS_SENSOR_GPS | mavlink.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+                   | mavlink.MAV_SYS_STATUS_LOGGING | mavlink.MAV_SYS_STATUS_SENSOR_BATTERY)
+SENSORS_ENABLED = SENSORS_PRESENT | mavlink.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+SENSORS_HEALTHY = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                   | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+                   | mavlink.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE | mavlink.MAV_SYS_STATUS_SENSOR_GPS
+                   | mavlink.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+                   | mavlink.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL | mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+                   | mavlink.MAV_SYS_STATUS_AHRS | mavlink.MAV_SYS_STATUS_LOGGING
+                   | mavlink.MAV_SYS_STATUS_SENSOR_BATTERY)
+LOAD_PERMILLE = 137  # PX4 SITL's CPU load as measured: 13.7 %
+BATTERY_CURRENT_CA = -100  # PX4 SITL's battery does not measure current: -1 A
+# ESTIMATOR_STATUS.flags as PX4 SITL's EKF2 on the ground (1023)
+ESTIMATOR_FLAGS = (mavlink.ESTIMATOR_ATTITUDE | mavlink.ESTIMATOR_VELOCITY_HORIZ | mavlink.ESTIMATOR_VELOCITY_VERT
+                   | mavlink.ESTIMATOR_POS_HORIZ_REL | mavlink.ESTIMATOR_POS_HORIZ_ABS
+                   | mavlink.ESTIMATOR_POS_VERT_ABS | mavlink.ESTIMATOR_POS_VERT_AGL
+                   | mavlink.ESTIMATOR_CONST_POS_MODE | mavlink.ESTIMATOR_PRED_POS_HORIZ_REL
+                   | mavlink.ESTIMATOR_PRED_POS_HORIZ_ABS)
+GPS_SATELLITES, GPS_EPH, GPS_EPV = 10, 70, 110  # PX4 SITL's simulated GPS
+GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM_S = 500, 800, 200
+RANGEFINDER_MIN_CM, RANGEFINDER_MAX_CM = 10, 4000
+PWM_DISARMED, PWM_MIN, PWM_MAX = 1000, 1000, 2000
+MOTORS = 4
+TEMPERATURE_C = 25.0
 HIGHRES_IMU_ALL_FIELDS = 0x1FFF  # fields_updated: every one of the 13 fields is fresh
+# ODOMETRY covariances: upper triangles of 6x6 matrices, row-major; only the diagonal is known
+_DIAGONAL = (0, 6, 11, 15, 18, 20)
+POSE_COVARIANCE = [0.0] * 21
+VELOCITY_COVARIANCE = [0.0] * 21
+for _i, _var in zip(_DIAGONAL, (0.01, 0.01, 0.02, 1e-4, 1e-4, 1e-3)):
+    POSE_COVARIANCE[_i] = _var
+for _i, _var in zip(_DIAGONAL, (0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-4)):
+    VELOCITY_COVARIANCE[_i] = _var
+UNIX_2019_S = 1546300800  # OPEN_DRONE_ID_SYSTEM.timestamp counts from 2019-01-01 00:00 UTC
+UINT16_UNKNOWN, INT16_UNKNOWN = 0xFFFF, 0x7FFF
+NAN = float('nan')
 
 
 class Streams:
-    def __init__(self, now_s):
-        self._ids = {name: getattr(mavlink, 'MAVLINK_MSG_ID_' + name) for name in DEFAULT_RATES_HZ}
-        self.names_by_id = {v: k for k, v in self._ids.items()}
-        for name in ON_REQUEST:
-            self.names_by_id[getattr(mavlink, 'MAVLINK_MSG_ID_' + name)] = name
-        self.interval_s = {name: 1.0 / hz for name, hz in DEFAULT_RATES_HZ.items()}
-        self.next_s = {name: now_s for name in DEFAULT_RATES_HZ}
+    """The intervals of one link: `rates_hz` are its defaults."""
+
+    def __init__(self, now_s, rates_hz=ONBOARD_RATES_HZ):
+        self.defaults_s = {name: 1.0 / hz for name, hz in rates_hz.items()}
+        self.names_by_id = NAMES_BY_ID
+        self.interval_s = dict(self.defaults_s)
+        self.next_s = {name: now_s for name in self.interval_s}
 
     def set_interval(self, msg_id, interval_us, now_s):
         """Apply SET_MESSAGE_INTERVAL; True when accepted."""
-        name = self.names_by_id.get(int(msg_id))
+        name = NAMES_BY_ID.get(int(msg_id))
         if name is None or name in FIXED_RATE or name in ON_REQUEST:
             return False
         if interval_us == 0:
-            self.interval_s[name] = 1.0 / DEFAULT_RATES_HZ[name]
+            interval = self.defaults_s.get(name)
         elif interval_us < 0:
-            self.interval_s[name] = None
+            interval = None
         else:
-            self.interval_s[name] = interval_us * 1e-6
-        self.next_s[name] = now_s
+            interval = interval_us * 1e-6
+        if interval is None:
+            self.interval_s.pop(name, None)
+        else:
+            self.interval_s[name] = interval
+            self.next_s[name] = now_s
         return True
 
     def interval_us(self, msg_id):
         """For MESSAGE_INTERVAL: -1 stopped, 0 unknown/not available, else microseconds."""
-        name = self.names_by_id.get(int(msg_id))
+        name = NAMES_BY_ID.get(int(msg_id))
         if name is None or name in ON_REQUEST:
             return 0
-        interval = self.interval_s[name]
-        return -1 if interval is None else int(interval * 1e6)
+        interval = self.interval_s.get(name)
+        return -1 if interval is None else int(round(interval * 1e6))
 
     def due(self, now_s):
         """Names of the streams to send now; their next times move on."""
         out = []
+        next_s = self.next_s
         for name, interval in self.interval_s.items():
-            if interval is not None and now_s >= self.next_s[name]:
+            if now_s >= next_s[name]:
                 out.append(name)
                 # keep the cadence, but never queue a burst after a stall
-                self.next_s[name] = max(self.next_s[name] + interval, now_s + interval * 0.5)
+                next_s[name] = max(next_s[name] + interval, now_s + interval * 0.5)
         return out
 
 
-def _pressure_hpa(alt_m):
-    return 1013.25 * (1.0 - 2.25577e-5 * alt_m) ** 5.25588
+def pressure_hpa(alt_amsl_m):
+    """ISA static pressure at an altitude AMSL."""
+    return 1013.25 * (1.0 - 2.25577e-5 * alt_amsl_m) ** 5.25588
+
+
+def euler(q):
+    """(roll, pitch, yaw) in rad of a (w, x, y, z) NED/FRD quaternion."""
+    w, x, y, z = q
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def to_body(q, v):
+    """Rotate a NED vector into the FRD body frame of attitude q (w, x, y, z)."""
+    w, x, y, z = q
+    return ((1 - 2 * (y * y + z * z)) * v[0] + 2 * (x * y + w * z) * v[1] + 2 * (x * z - w * y) * v[2],
+            2 * (x * y - w * z) * v[0] + (1 - 2 * (x * x + z * z)) * v[1] + 2 * (y * z + w * x) * v[2],
+            2 * (x * z + w * y) * v[0] + 2 * (y * z - w * x) * v[1] + (1 - 2 * (x * x + y * y)) * v[2])
+
+
+def position_target_type_mask(position, velocity, acceleration, yaw, yaw_rate):
+    """POSITION_TARGET_TYPEMASK ignore bits for the NaN (uncontrolled) fields."""
+    mask = 0
+    for values, bits in ((position, (mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE,
+                                     mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE,
+                                     mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE)),
+                         (velocity, (mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE,
+                                     mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE,
+                                     mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE)),
+                         (acceleration, (mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE,
+                                         mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE,
+                                         mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE)),
+                         ((yaw,), (mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE,)),
+                         ((yaw_rate,), (mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,))):
+        for value, bit in zip(values, bits):
+            if value != value:
+                mask |= bit
+    return mask
+
+
+def sensors_health(prearm_ok):
+    """SYS_STATUS onboard_control_sensors_health: PREARM_CHECK only while the arming checks pass."""
+    return SENSORS_HEALTHY | (mavlink.MAV_SYS_STATUS_PREARM_CHECK if prearm_ok else 0)
+
+
+def battery_charge_state(remaining):
+    """MAV_BATTERY_CHARGE_STATE for a charge 0..1 (PX4's BAT_LOW_THR 0.15, BAT_CRIT_THR 0.07, BAT_EMERGEN_THR 0.05)."""
+    if remaining < 0.05:
+        return mavlink.MAV_BATTERY_CHARGE_STATE_EMERGENCY
+    if remaining < 0.07:
+        return mavlink.MAV_BATTERY_CHARGE_STATE_CRITICAL
+    if remaining < 0.15:
+        return mavlink.MAV_BATTERY_CHARGE_STATE_LOW
+    return mavlink.MAV_BATTERY_CHARGE_STATE_OK
+
+
+def servo_pwm(armed, thrust):
+    """Motor PWM (us): the disarmed value, else the thrust (0..1) mapped onto PWM_MIN..PWM_MAX."""
+    if not armed:
+        return PWM_DISARMED
+    return int(round(PWM_MIN + (PWM_MAX - PWM_MIN) * max(0.0, min(1.0, thrust))))
+
+
+def _finite_or_zero(values):
+    return [v if v == v else 0.0 for v in values]
 
 
 class TelemetryBuilder:
@@ -101,6 +266,10 @@ class TelemetryBuilder:
     def __init__(self, mav, frame, params, boot_s=0.0):
         self.mav, self.frame, self.params = mav, frame, params
         self.boot_s = boot_s
+        self.uid = UID_BASE + mav.srcSystem
+        self.ping_seq = 0
+        self._for = None   # the Status the cache below belongs to
+        self._cache = {}
 
     def time_boot_ms(self, now_s):
         return int((now_s - self.boot_s) * 1000) & 0xFFFFFFFF
@@ -112,6 +281,35 @@ class TelemetryBuilder:
         """The message `name` for now, or None when there is nothing to say (no home yet)."""
         return getattr(self, '_' + name.lower())(status, now_s)
 
+    # -- what several messages share, once per Status ---------------------------------------
+
+    def _shared(self, st, key, compute):
+        if st is not self._for:
+            self._for, self._cache = st, {}
+        value = self._cache.get(key)
+        if value is None:
+            value = self._cache[key] = compute(st)
+        return value
+
+    def _global(self, st):
+        """(lat_e7, lon_e7, alt_amsl_mm) of the vehicle."""
+        def compute(s):
+            lat, lon, alt = self.frame.to_global(*s.position)
+            return int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000))
+        return self._shared(st, 'global', compute)
+
+    def _euler(self, st):
+        return self._shared(st, 'euler', lambda s: euler(s.attitude))
+
+    def _course(self, st):
+        """(ground speed m/s, course over ground in rad or None when not moving)."""
+        def compute(s):
+            speed = math.hypot(s.velocity[0], s.velocity[1])
+            return speed, (math.atan2(s.velocity[1], s.velocity[0]) if speed > 0.1 else None)
+        return self._shared(st, 'course', compute)
+
+    # -- messages ------------------------------------------------------------------------------
+
     def _heartbeat(self, st, now_s):
         return self.mav.heartbeat_encode(self.params['MAV_TYPE'], mavlink.MAV_AUTOPILOT_PX4, st.base_mode,
                                          st.custom_mode, st.system_status, 3)
@@ -120,8 +318,24 @@ class TelemetryBuilder:
         return self.mav.current_mode_encode(STANDARD_MODES.get(st.nav_mode, mavlink.MAV_STANDARD_MODE_NON_STANDARD),
                                             st.custom_mode, st.intended_custom_mode)
 
+    def _current_mode(self, st, now_s):
+        return self.current_mode(st)
+
     def _sys_status(self, st, now_s):
-        return self.mav.sys_status_encode(SENSORS, SENSORS, SENSORS, 200, 16200, -1, 100, 0, 0, 0, 0, 0, 0)
+        return self.mav.sys_status_encode(SENSORS_PRESENT, SENSORS_ENABLED, sensors_health(st.prearm_ok),
+                                          LOAD_PERMILLE, int(round(st.battery_voltage * 1000)), BATTERY_CURRENT_CA,
+                                          int(round(st.battery_remaining * 100)), 0, 0, 0, 0, 0, 0)
+
+    def _battery_status(self, st, now_s):
+        cell_mv = int(round(st.battery_voltage * 1000 / MOTORS))  # a 4S pack: one cell per motor arm
+        return self.mav.battery_status_encode(
+            0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, INT16_UNKNOWN,
+            [cell_mv] * 4 + [UINT16_UNKNOWN] * 6, BATTERY_CURRENT_CA, -1, -1, int(round(st.battery_remaining * 100)),
+            0, battery_charge_state(st.battery_remaining))
+
+    def _attitude(self, st, now_s):
+        roll, pitch, yaw = self._euler(st)
+        return self.mav.attitude_encode(self.time_boot_ms(now_s), roll, pitch, yaw, 0.0, 0.0, st.yaw_rate)
 
     def _attitude_quaternion(self, st, now_s):
         w, x, y, z = st.attitude
@@ -131,17 +345,40 @@ class TelemetryBuilder:
     def _local_position_ned(self, st, now_s):
         return self.mav.local_position_ned_encode(self.time_boot_ms(now_s), *st.position, *st.velocity)
 
+    def _odometry(self, st, now_s):
+        # same clock and values as LOCAL_POSITION_NED and ATTITUDE_QUATERNION
+        return self.mav.odometry_encode(
+            self.time_usec(now_s), mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_BODY_FRD, *st.position,
+            list(st.attitude), *to_body(st.attitude, st.velocity), 0.0, 0.0, st.yaw_rate,
+            POSE_COVARIANCE, VELOCITY_COVARIANCE, 0, mavlink.MAV_ESTIMATOR_TYPE_GPS_INS, 100)
+
     def _global_position_int(self, st, now_s):
-        lat, lon, alt = self.frame.to_global(*st.position)
+        lat, lon, alt = self._global(st)
         heading = int(round(math.degrees(st.yaw) * 100.0)) % 36000
         return self.mav.global_position_int_encode(
-            self.time_boot_ms(now_s), int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
-            int(round(st.height * 1000)), *(int(round(c * 100)) for c in st.velocity), heading)
+            self.time_boot_ms(now_s), lat, lon, alt, int(round(st.height * 1000)),
+            *(int(round(c * 100)) for c in st.velocity), heading)
+
+    def _gps_raw_int(self, st, now_s):
+        lat, lon, alt = self._global(st)
+        speed, course = self._course(st)
+        cog = UINT16_UNKNOWN if course is None else int(round(math.degrees(course) * 100.0)) % 36000
+        return self.mav.gps_raw_int_encode(
+            self.time_usec(now_s), mavlink.GPS_FIX_TYPE_3D_FIX, lat, lon, alt, GPS_EPH, GPS_EPV,
+            int(round(speed * 100)), cog, GPS_SATELLITES, alt, GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM_S, 0, 0)
 
     def _altitude(self, st, now_s):
         amsl = self.frame.alt0 + st.height
-        return self.mav.altitude_encode(self.time_usec(now_s), amsl, amsl, st.height, st.height, float('nan'),
+        # flat ground at home altitude: terrain is home's AMSL altitude, the clearance the height
+        return self.mav.altitude_encode(self.time_usec(now_s), amsl, amsl, st.height, st.height, self.frame.alt0,
                                         st.height)
+
+    def _vfr_hud(self, st, now_s):
+        speed, _ = self._course(st)
+        heading = int(round(math.degrees(st.yaw))) % 360
+        throttle = int(round(st.thrust * 100)) if st.armed else 0
+        # no airspeed sensor and no wind: airspeed is the ground speed
+        return self.mav.vfr_hud_encode(speed, speed, heading, throttle, self.frame.alt0 + st.height, -st.velocity[2])
 
     def _extended_sys_state(self, st, now_s):
         return self.mav.extended_sys_state_encode(mavlink.MAV_VTOL_STATE_UNDEFINED, st.landed_state)
@@ -160,15 +397,91 @@ class TelemetryBuilder:
         mag_n, mag_d = 0.21, 0.43  # gauss, roughly central Europe
         alt = self.frame.alt0 + st.height
         return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, 0.0, 0.0, st.yaw_rate,
-                                           c * mag_n, -s * mag_n, mag_d, _pressure_hpa(alt), 0.0, alt, 25.0,
+                                           c * mag_n, -s * mag_n, mag_d, pressure_hpa(alt), 0.0, alt, TEMPERATURE_C,
                                            HIGHRES_IMU_ALL_FIELDS)
+
+    def _scaled_pressure(self, st, now_s):
+        return self.mav.scaled_pressure_encode(self.time_boot_ms(now_s), pressure_hpa(self.frame.alt0 + st.height),
+                                               0.0, int(TEMPERATURE_C * 100))
+
+    def _distance_sensor(self, st, now_s):
+        w, x, y, z = st.attitude
+        cos_tilt = max(0.1, 1.0 - 2.0 * (x * x + y * y))  # a downward rangefinder sees the slant range
+        distance_cm = int(round(st.height / cos_tilt * 100))
+        distance_cm = max(RANGEFINDER_MIN_CM, min(RANGEFINDER_MAX_CM, distance_cm))
+        return self.mav.distance_sensor_encode(self.time_boot_ms(now_s), RANGEFINDER_MIN_CM, RANGEFINDER_MAX_CM,
+                                               distance_cm, mavlink.MAV_DISTANCE_SENSOR_LASER, 0,
+                                               mavlink.MAV_SENSOR_ROTATION_PITCH_270, 1)
+
+    def _position_target_local_ned(self, st, now_s):
+        p, v, a = st.position_setpoint, st.velocity_setpoint, st.acceleration_setpoint
+        mask = position_target_type_mask(p, v, a, st.yaw_setpoint, st.yaw_rate_setpoint)
+        return self.mav.position_target_local_ned_encode(
+            self.time_boot_ms(now_s), mavlink.MAV_FRAME_LOCAL_NED, mask, *_finite_or_zero(p), *_finite_or_zero(v),
+            *_finite_or_zero(a), st.yaw_setpoint, st.yaw_rate_setpoint if st.yaw_rate_setpoint == st.yaw_rate_setpoint
+            else 0.0)
+
+    def _attitude_target(self, st, now_s):
+        acc = st.acceleration_setpoint
+        if acc[0] != acc[0]:  # not flying: level, at the current heading, no thrust
+            q = quaternion_from_thrust((0.0, 0.0, 0.0), st.yaw_setpoint)
+        else:
+            q = quaternion_from_thrust(acc, st.yaw_setpoint)
+        yaw_rate = st.yaw_rate_setpoint if st.yaw_rate_setpoint == st.yaw_rate_setpoint else st.yaw_rate
+        return self.mav.attitude_target_encode(self.time_boot_ms(now_s), 0, list(q), 0.0, 0.0, yaw_rate, st.thrust)
+
+    def _servo_output_raw(self, st, now_s):
+        pwm = servo_pwm(st.armed, st.thrust)
+        return self.mav.servo_output_raw_encode(self.time_usec(now_s) & 0xFFFFFFFF, 0, pwm, pwm, pwm, pwm,
+                                                0, 0, 0, 0)
+
+    def _estimator_status(self, st, now_s):
+        return self.mav.estimator_status_encode(self.time_usec(now_s), ESTIMATOR_FLAGS, 0.05, 0.05, 0.05, 0.05,
+                                                0.0, 0.0, GPS_H_ACC_MM / 1000.0, GPS_V_ACC_MM / 1000.0)
+
+    def _vibration(self, st, now_s):
+        return self.mav.vibration_encode(self.time_usec(now_s), 0.01, 0.01, 0.01, 0, 0, 0)
+
+    def _system_time(self, st, now_s):
+        return self.mav.system_time_encode(int(time.time() * 1e6), self.time_boot_ms(now_s))
+
+    def _timesync(self, st, now_s):
+        """A TIMESYNC request (tc1 0) on the boot clock, as PX4 sends them at 10 Hz."""
+        return self.mav.timesync_encode(0, int((now_s - self.boot_s) * 1e9))
+
+    def _ping(self, st, now_s):
+        self.ping_seq = (self.ping_seq + 1) & 0xFFFFFFFF
+        return self.mav.ping_encode(self.time_usec(now_s), self.ping_seq, 0, 0)
+
+    def _open_drone_id_location(self, st, now_s):
+        lat, lon, _ = self._global(st)
+        speed, course = self._course(st)
+        amsl = self.frame.alt0 + st.height
+        status = (mavlink.MAV_ODID_STATUS_GROUND if st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND
+                  else mavlink.MAV_ODID_STATUS_AIRBORNE)
+        direction = 36100 if course is None else int(round(math.degrees(course) * 100.0)) % 36000
+        return self.mav.open_drone_id_location_encode(
+            0, 0, [0] * 20, status, direction, min(int(round(speed * 100)), 25425),
+            max(-6200, min(6200, int(round(-st.velocity[2] * 100)))), lat, lon, amsl, amsl,
+            mavlink.MAV_ODID_HEIGHT_REF_OVER_TAKEOFF, st.height, mavlink.MAV_ODID_HOR_ACC_1_METER,
+            mavlink.MAV_ODID_VER_ACC_1_METER, mavlink.MAV_ODID_VER_ACC_1_METER,
+            mavlink.MAV_ODID_SPEED_ACC_0_3_METERS_PER_SECOND, round(time.time() % 3600.0, 1),
+            mavlink.MAV_ODID_TIME_ACC_0_1_SECOND)
+
+    def _open_drone_id_system(self, st, now_s):
+        f = self.frame
+        return self.mav.open_drone_id_system_encode(
+            0, 0, [0] * 20, mavlink.MAV_ODID_OPERATOR_LOCATION_TYPE_TAKEOFF,
+            mavlink.MAV_ODID_CLASSIFICATION_TYPE_UNDECLARED, int(round(f.lat0 * 1e7)), int(round(f.lon0 * 1e7)),
+            1, 0, -1000.0, -1000.0, mavlink.MAV_ODID_CATEGORY_EU_UNDECLARED, mavlink.MAV_ODID_CLASS_EU_UNDECLARED,
+            f.alt0, int(time.time()) - UNIX_2019_S)
 
     def _mission_current(self, st, now_s):
         return self.mav.mission_current_encode(st.mission_seq, st.mission_count)
 
     def _autopilot_version(self, st, now_s):
         return self.mav.autopilot_version_encode(CAPABILITIES, PX4_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
-                                                 0x26AC, 0x11, self.mav.srcSystem)
+                                                 0, 0, self.uid)
 
     def statustext(self, severity, text):
         return self.mav.statustext_encode(severity, text.encode('ascii', 'replace')[:50])

@@ -102,6 +102,12 @@ class Vehicle:
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
         self._attitude = None  # cached for the current step: telemetry asks more often than we step
+        # what the controller tracks, for telemetry (POSITION_TARGET_LOCAL_NED, ATTITUDE_TARGET):
+        # the setpoint flown, the velocity setpoint it gave (NaN where not controlled) and the
+        # commanded acceleration; None while the motors do not fly
+        self.setpoint = None
+        self.velocity_setpoint = (NAN, NAN, NAN)
+        self.acceleration_setpoint = None
 
     # -- commands from the commander -----------------------------------------------------
 
@@ -149,6 +155,7 @@ class Vehicle:
         dn_max = p['MPC_Z_VEL_MAX_DN'] if sp.z_down_max is None else min(sp.z_down_max, p['MPC_Z_VEL_MAX_DN'])
         vel_sp[0], vel_sp[1] = _limit_xy(vel_sp[0], vel_sp[1], xy_max)
         vel_sp[2] = _clamp(vel_sp[2], -up_max, dn_max)
+        self.velocity_setpoint = tuple(v if c else NAN for v, c in zip(vel_sp, controlled))
         return vel_sp, controlled
 
     def _acceleration_setpoint(self, sp, now_s):
@@ -175,10 +182,12 @@ class Vehicle:
             else:
                 yaw_rate = sp.yaw_rate if _is(sp.yaw_rate) else 0.0
             self.yaw_rate = _clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
+            self.setpoint, self.acceleration_setpoint = sp, acc_cmd
         else:
             # motors off or idling: no lift; in the air that is a fall
             acc_cmd = [0.0, 0.0, GRAVITY] if not self.ground_contact else [0.0, 0.0, 0.0]
             self.yaw_rate = 0.0
+            self.setpoint, self.acceleration_setpoint = None, None
         alpha = min(1.0, dt / ACC_LAG_S) if flying else 1.0
         for i in range(3):
             self.acceleration[i] += alpha * (acc_cmd[i] - self.acceleration[i])

@@ -1,0 +1,212 @@
+"""The simulated PX4's telemetry, offline: streams and rates, SYS_STATUS and HEARTBEAT words,
+the battery, and messages built from a flight Status (sim.telemetry, sim.flight)."""
+
+import math
+
+import pytest
+
+from offboard_py.dialect import mavlink
+from offboard_py.sim import offboard_input, telemetry
+from offboard_py.sim.commander import DISARM_SETTLE_S
+from offboard_py.sim.flight import HOVER_THRUST, Battery, Flight
+from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.params import ParamStore
+from offboard_py.testing.typemask import POSITION_AND_YAW
+
+M = mavlink
+ACCEPTED = M.MAV_RESULT_ACCEPTED
+FRAME = LocalFrame(47.0, 8.0, 500.0)
+
+
+def make(ready_delay_s=0.0, **overrides):
+    return Flight(ParamStore(dict(overrides)), FRAME, 0.0, ready_delay_s=ready_delay_s)
+
+
+def builder(flight):
+    return telemetry.TelemetryBuilder(M.MAVLink(None, srcSystem=3), FRAME, flight.params)
+
+
+def fly(f, t0, seconds, sp=None, dt=0.01):
+    t = t0
+    for _ in range(int(round(seconds / dt))):
+        t += dt
+        if sp is not None:
+            f.on_offboard_setpoint(sp, t)
+        f.step(t, dt)
+    return t
+
+
+def hover_setpoint(down=-2.0):
+    return offboard_input.offboard_setpoint(M.MAV_FRAME_LOCAL_NED, POSITION_AND_YAW, (0.0, 0.0, down), (0, 0, 0),
+                                            (0, 0, 0), 0.0, 0.0, 0.0)
+
+
+# -- rates -------------------------------------------------------------------------------------
+
+def due_counts(streams, seconds, dt=0.01):
+    counts = {}
+    for i in range(int(round(seconds / dt))):
+        for name in streams.due(i * dt):
+            counts[name] = counts.get(name, 0) + 1
+    return counts
+
+
+def test_onboard_streams_at_px4_rates():
+    counts = due_counts(telemetry.Streams(0.0, telemetry.ONBOARD_RATES_HZ), 10.0)
+    for name, hz in telemetry.ONBOARD_RATES_HZ.items():
+        assert counts[name] == pytest.approx(hz * 10.0, abs=1), name
+    assert telemetry.ONBOARD_RATES_HZ['SYS_STATUS'] == 5.0 and telemetry.ONBOARD_RATES_HZ['ATTITUDE'] == 100.0
+
+
+def test_gcs_streams_are_px4_normal_mode_and_slower_than_onboard():
+    gcs, onboard = telemetry.GCS_RATES_HZ, telemetry.ONBOARD_RATES_HZ
+    assert (gcs['ATTITUDE'], gcs['GLOBAL_POSITION_INT'], gcs['SYS_STATUS'], gcs['VFR_HUD']) == (15.0, 5.0, 1.0, 4.0)
+    assert all(gcs[name] <= onboard[name] for name in gcs if name in onboard)
+    assert 'HIGHRES_IMU' not in gcs and 'TIMESYNC' not in gcs
+
+
+def test_message_interval_for_any_message_the_simulator_builds():
+    streams = telemetry.Streams(0.0, telemetry.GCS_RATES_HZ)
+    odometry = M.MAVLINK_MSG_ID_ODOMETRY  # not in the GCS set
+    assert streams.interval_us(odometry) == -1
+    assert streams.set_interval(odometry, 100000, 0.0)
+    assert streams.interval_us(odometry) == 100000
+    assert streams.set_interval(odometry, 0, 0.0), '0: back to the default, which is off here'
+    assert streams.interval_us(odometry) == -1
+    assert streams.set_interval(M.MAVLINK_MSG_ID_ATTITUDE, -1, 0.0) and 'ATTITUDE' not in due_counts(streams, 1.0)
+    assert not streams.set_interval(M.MAVLINK_MSG_ID_HEARTBEAT, 100000, 0.0), 'HEARTBEAT is fixed'
+    assert not streams.set_interval(9999, 100000, 0.0)
+    assert streams.interval_us(9999) == 0
+
+
+# -- SYS_STATUS and HEARTBEAT ------------------------------------------------------------------
+
+def test_sys_status_words_are_px4_sitl_s():
+    assert telemetry.SENSORS_PRESENT == 0x0300402F
+    assert telemetry.SENSORS_ENABLED == 0x0301402F
+    assert telemetry.sensors_health(True) == 0x1320C83F
+    assert telemetry.sensors_health(False) == 0x1320C83F & ~M.MAV_SYS_STATUS_PREARM_CHECK
+
+
+def test_readiness_failures_and_disarm_in_status():
+    f = make(ready_delay_s=5.0, SYS_FAILURE_EN=1)
+    st = f.status(1.0)
+    assert (st.system_status, st.prearm_ok) == (M.MAV_STATE_UNINIT, False)
+    st = f.status(5.0)
+    assert (st.system_status, st.prearm_ok) == (M.MAV_STATE_STANDBY, True)
+    f.inject_failure('unit 0', True)
+    assert (f.status(6.0).system_status, f.status(6.0).prearm_ok) == (M.MAV_STATE_UNINIT, False)
+    f.inject_failure('unit 0', False)
+    assert f.request_arming(True, False, 7.0) == ACCEPTED
+    assert f.status(7.0).system_status == M.MAV_STATE_ACTIVE
+    assert f.request_arming(False, False, 8.0) == ACCEPTED
+    assert f.status(8.0 + DISARM_SETTLE_S / 2).system_status == M.MAV_STATE_UNINIT, 'UNINIT again after a disarm'
+    assert f.status(8.0 + DISARM_SETTLE_S).system_status == M.MAV_STATE_STANDBY
+
+
+def test_sys_status_message_follows_the_prearm_verdict():
+    f = make(ready_delay_s=5.0)
+    b = builder(f)
+    early, late = (b.build('SYS_STATUS', f.status(t), t) for t in (1.0, 6.0))
+    assert not early.onboard_control_sensors_health & M.MAV_SYS_STATUS_PREARM_CHECK
+    assert late.onboard_control_sensors_health & M.MAV_SYS_STATUS_PREARM_CHECK
+    assert (late.load, late.voltage_battery, late.current_battery, late.battery_remaining) == (137, 16200, -100, 100)
+
+
+# -- the battery -------------------------------------------------------------------------------
+
+def test_battery_full_at_boot_drains_only_while_armed():
+    battery = Battery(endurance_s=100.0)
+    assert battery.remaining == 1.0 and battery.voltage_v == pytest.approx(16.2)
+    battery.step(10.0, armed=False)
+    assert battery.remaining == 1.0
+    battery.step(10.0, armed=True)
+    assert battery.remaining == pytest.approx(0.9) and battery.voltage_v < 16.2
+    battery.step(1000.0, armed=True)
+    assert battery.remaining == 0.0 and battery.voltage_v == pytest.approx(14.0)
+
+
+def test_battery_status_message_and_charge_states():
+    f = make()
+    msg = builder(f).build('BATTERY_STATUS', f.status(0.0), 0.0)
+    assert (msg.battery_function, msg.type, msg.battery_remaining, msg.charge_state) == (1, 1, 100, 1)
+    assert telemetry.battery_charge_state(0.1) == M.MAV_BATTERY_CHARGE_STATE_LOW
+    assert telemetry.battery_charge_state(0.06) == M.MAV_BATTERY_CHARGE_STATE_CRITICAL
+    f.request_arming(True, False, 0.0)
+    fly(f, 0.0, 5.0)
+    assert f.status(5.0).battery_remaining < 1.0
+
+
+# -- messages from a Status --------------------------------------------------------------------
+
+def test_every_stream_builds_on_the_ground_and_in_the_air():
+    f = make()
+    b = builder(f)
+    for name in sorted(telemetry.STREAMABLE | telemetry.ON_REQUEST):
+        assert b.build(name, f.status(1.0), 1.0) is not None, name
+    f.on_offboard_setpoint(hover_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = fly(f, 0.0, 12.0, hover_setpoint())
+    for name in sorted(telemetry.STREAMABLE):
+        assert b.build(name, f.status(t), t) is not None, name
+
+
+def test_hover_telemetry_is_consistent():
+    f = make()
+    b = builder(f)
+    f.on_offboard_setpoint(hover_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = fly(f, 0.0, 15.0, hover_setpoint())
+    st = f.status(t)
+    assert st.thrust == pytest.approx(HOVER_THRUST, abs=0.02)
+    servo = b.build('SERVO_OUTPUT_RAW', st, t)
+    assert 1450 <= servo.servo1_raw <= 1550
+    target = b.build('POSITION_TARGET_LOCAL_NED', st, t)
+    assert (target.x, target.y, target.z) == pytest.approx((0.0, 0.0, -2.0))
+    assert not target.type_mask & M.POSITION_TARGET_TYPEMASK_Z_IGNORE
+    assert target.type_mask & M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+    att_target = b.build('ATTITUDE_TARGET', st, t)
+    assert att_target.thrust == pytest.approx(HOVER_THRUST, abs=0.02) and abs(att_target.q[0]) > 0.99
+    hud = b.build('VFR_HUD', st, t)
+    assert hud.alt == pytest.approx(502.0, abs=0.05) and hud.throttle == pytest.approx(50, abs=2)
+    rangefinder = b.build('DISTANCE_SENSOR', st, t)
+    assert rangefinder.current_distance == pytest.approx(200, abs=3)
+    assert rangefinder.orientation == M.MAV_SENSOR_ROTATION_PITCH_270
+    # ODOMETRY and ATTITUDE tell what LOCAL_POSITION_NED and ATTITUDE_QUATERNION tell, on the same clock
+    odom, lpn = b.build('ODOMETRY', st, t), b.build('LOCAL_POSITION_NED', st, t)
+    quat, att = b.build('ATTITUDE_QUATERNION', st, t), b.build('ATTITUDE', st, t)
+    assert odom.time_usec // 1000 == lpn.time_boot_ms == att.time_boot_ms
+    assert (odom.x, odom.y, odom.z) == pytest.approx((lpn.x, lpn.y, lpn.z))
+    assert list(odom.q) == pytest.approx([quat.q1, quat.q2, quat.q3, quat.q4])
+    assert att.yaw == pytest.approx(math.atan2(2 * (quat.q1 * quat.q4 + quat.q2 * quat.q3),
+                                               1 - 2 * (quat.q3 ** 2 + quat.q4 ** 2)))
+
+
+def test_body_velocity_of_odometry():
+    yawed_90 = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # nose east
+    assert telemetry.to_body(yawed_90, (0.0, 1.0, 0.0)) == pytest.approx((1.0, 0.0, 0.0), abs=1e-9)
+
+
+def test_disarmed_on_the_ground():
+    f = make()
+    st = f.status(1.0)
+    b = builder(f)
+    assert b.build('SERVO_OUTPUT_RAW', st, 1.0).servo1_raw == 1000
+    gps = b.build('GPS_RAW_INT', st, 1.0)
+    assert (gps.fix_type, gps.satellites_visible, gps.eph, gps.epv) == (3, 10, 70, 110)
+    assert b.build('ESTIMATOR_STATUS', st, 1.0).flags == 1023
+    altitude = b.build('ALTITUDE', st, 1.0)
+    assert all(math.isfinite(v) for v in (altitude.altitude_amsl, altitude.altitude_terrain,
+                                          altitude.bottom_clearance))
+    assert b.build('TIMESYNC', st, 1.5).ts1 == 1500000000, 'TIMESYNC requests on the boot clock'
+
+
+def test_autopilot_version_is_px4_s():
+    f = make()
+    msg = builder(f).build('AUTOPILOT_VERSION', f.status(0.0), 0.0)
+    assert msg.capabilities == 0xE8FF and msg.flight_sw_version == 0xFF
+    assert (msg.vendor_id, msg.product_id) == (0, 0)
+    assert msg.uid > 0xFFFFFFFF and msg.uid & 0xFF == 3, '64 bits, one per system id'
+    assert not msg.capabilities & M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
