@@ -24,17 +24,22 @@ from offboard_py.testing.typemask import POSITION_AND_YAW  # noqa: E402
 
 REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
 SIM_SCRIPT = os.path.join(REPO, 'scripts', 'sim_px4.py')
+GCS_EXTRA_PORT = 9  # the extra port (offboard_py.testing.ports) a test's ground station binds
 ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED, FAILED = (
     mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_DENIED,
     mavlink.MAV_RESULT_UNSUPPORTED, mavlink.MAV_RESULT_FAILED)
 
 
 class SimProcess(OutputProcess):
-    """scripts/sim_px4.py -i INSTANCE ARGS, run by this Python with the caller's environment."""
+    """scripts/sim_px4.py -i INSTANCE ARGS, run by this Python with the caller's environment.
+    Its ground-station link sends to the instance's extra port GCS_EXTRA_PORT (not to 14550,
+    which tests running side by side would share)."""
 
     def __init__(self, instance, *args):
         self.instance = instance
-        super().__init__([sys.executable, SIM_SCRIPT, '-i', str(instance)] + list(args))
+        self.gcs_port = ports.extra_port(instance, GCS_EXTRA_PORT)
+        super().__init__([sys.executable, SIM_SCRIPT, '-i', str(instance), '--gcs-remote-port', str(self.gcs_port)]
+                         + list(args))
 
     def stop(self):
         return super().stop(signal.SIGTERM, timeout_s=5.0)
@@ -43,9 +48,11 @@ class SimProcess(OutputProcess):
 class Client:
     """A MAVLink ground station / companion on the instance's bridge port, as mavros or MAVSDK would be."""
 
-    def __init__(self, instance, system_id=255, component_id=mavlink.MAV_COMP_ID_MISSIONPLANNER):
+    def __init__(self, instance, system_id=255, component_id=mavlink.MAV_COMP_ID_MISSIONPLANNER, port=None):
+        """On the instance's bridge port (the onboard link's remote), or on `port`."""
         self.target = ports.system_id(instance)
-        self.conn = mavutil.mavlink_connection('udpin:127.0.0.1:%d' % ports.bridge_port(instance),
+        port = ports.bridge_port(instance) if port is None else port
+        self.conn = mavutil.mavlink_connection('udpin:127.0.0.1:%d' % port,
                                                dialect='development',
                                                source_system=system_id, source_component=component_id)
         self.mav = self.conn.mav

@@ -44,7 +44,9 @@ def test_heartbeat_identity_and_boot_state(start_sim):
     assert (hb.type, hb.autopilot, hb.mavlink_version) == (mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, 3)
     assert hb.custom_mode == px4_modes.encode('AUTO.LOITER'), 'PX4 SITL boots in AUTO.LOITER'
     assert hb.base_mode == HOLD_FLAGS, 'AUTO modes: custom, auto, guided, stabilize; disarmed'
-    assert hb.system_status == mavlink.MAV_STATE_STANDBY, 'STANDBY'
+    assert hb.system_status == mavlink.MAV_STATE_UNINIT, 'UNINIT until the pre-flight checks pass (PX4 SITL)'
+    client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_STANDBY, 7.0,
+                    'STANDBY once ready (5 s)')
     t0 = time.monotonic()
     count0 = sum(1 for _, m in client.history if m.get_type() == 'HEARTBEAT')
     time.sleep(3.0)
@@ -61,8 +63,9 @@ def test_streams_at_px4_onboard_rates(start_sim):
     for t, m in list(client.history):
         if t >= t0:
             rates[m.get_type()] = rates.get(m.get_type(), 0) + 0.5
-    for name, hz in (('ATTITUDE_QUATERNION', 50), ('GLOBAL_POSITION_INT', 50), ('LOCAL_POSITION_NED', 30),
-                     ('HIGHRES_IMU', 50), ('ALTITUDE', 10), ('EXTENDED_SYS_STATE', 5)):
+    for name, hz in (('ATTITUDE', 100), ('ATTITUDE_QUATERNION', 50), ('GLOBAL_POSITION_INT', 50),
+                     ('LOCAL_POSITION_NED', 30), ('HIGHRES_IMU', 50), ('ALTITUDE', 10), ('EXTENDED_SYS_STATE', 5),
+                     ('SYS_STATUS', 5)):
         assert abs(rates.get(name, 0) - hz) <= hz * 0.15 + 0.5, '%s at %.1f Hz, PX4 sends %d Hz' % (
             name, rates.get(name, 0), hz)
     # SET_MESSAGE_INTERVAL: LOCAL_POSITION_NED to 5 Hz; HEARTBEAT cannot be changed (FAILED, as PX4)
@@ -73,9 +76,10 @@ def test_streams_at_px4_onboard_rates(start_sim):
     time.sleep(2.0)
     n = sum(1 for t, m in list(client.history) if t >= t1 + 0.2 and m.get_type() == 'LOCAL_POSITION_NED')
     assert 7 <= n <= 11, 'LOCAL_POSITION_NED at 5 Hz should give ~9 in 1.8 s, got %d' % n
-    # REQUEST_MESSAGE: one AUTOPILOT_VERSION
+    # REQUEST_MESSAGE: one AUTOPILOT_VERSION; an id it cannot send is DENIED (PX4 SITL)
     assert client.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)[0] == ACCEPTED
     client.wait_for(lambda: client.latest.get('AUTOPILOT_VERSION'), 2.0, 'AUTOPILOT_VERSION')
+    assert client.command(mavlink.MAV_CMD_REQUEST_MESSAGE, 9999)[0] == DENIED
 
 
 def test_offboard_refusals_then_acceptance(start_sim):

@@ -1,10 +1,14 @@
 """MAVLink I/O of the simulated PX4: receive handlers, command dispatch, the real-time loop.
 
-Binds UDP like PX4 SITL's offboard-API link (local 14580+N, sending to 14540+N, then to
-whoever talks to it), answers every COMMAND_LONG/COMMAND_INT with a COMMAND_ACK through a
-table {MAV_CMD: handler}, ignores what is addressed to another system, and steps the
-flight stack (sim.flight) at `rate_hz` in real time, sending the telemetry streams that are
-due after each step and what the flight stack said (mode changes, texts, mission progress).
+Two UDP links, as PX4 SITL has: the offboard-API link (local 14580+N, sending to 14540+N)
+with PX4's onboard stream set, and the ground-station link (local 18570+N, sending to 14550)
+with PX4's normal (GCS) stream set; each sends to whoever talks to it once someone does.
+Both links take the same requests through one set of handlers, and a reply goes back on
+the link its request came from. Every COMMAND_LONG/COMMAND_INT gets a COMMAND_ACK through a
+table {MAV_CMD: handler}; what is addressed to another system is ignored. The flight stack
+(sim.flight) steps at `rate_hz` in real time; after each step the streams due on each link
+are sent (each message built once per step, whatever the number of links), then what the
+flight stack said (mode changes, texts, mission progress) goes out on both links.
 """
 
 import logging
@@ -27,9 +31,11 @@ from offboard_py.sim.geo import LocalFrame
 log = logging.getLogger('offboard_py.sim')
 
 SITL_LOCAL_PORT, SITL_REMOTE_PORT = 14580, 14540
+GCS_LOCAL_PORT, GCS_REMOTE_PORT = 18570, 14550  # PX4 SITL's GCS link: 18570+N, to QGroundControl's 14550
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
 
 ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
+UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 # What REQUEST_MESSAGE's older, dedicated commands ask for
 REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
                         mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION}
@@ -38,7 +44,7 @@ REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_I
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
                  param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=time.monotonic,
-                 signing_key_file=None, allowed_systems=()):
+                 signing_key_file=None, allowed_systems=(), gcs=True, gcs_port=None, gcs_remote_port=None):
         self.clock = clock
         self.system_id = instance + 1
         self.rate_hz = rate_hz
@@ -53,8 +59,22 @@ class SimulatedPx4:
         remote_port = SITL_REMOTE_PORT + instance if remote_port is None else remote_port
         self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1)
         self.mav = self.link.mav
-        self.transfer = missions.MissionTransfer(self.mav, self.link.send, self._on_mission_changed)
-        self.streams = telemetry.Streams(self.t(now))
+        self.links = [self.link]
+        self.gcs_link = None
+        if gcs:
+            gcs_port = GCS_LOCAL_PORT + instance if gcs_port is None else gcs_port
+            gcs_remote_port = GCS_REMOTE_PORT if gcs_remote_port is None else gcs_remote_port
+            try:
+                self.gcs_link = MavlinkLink((bind_host, gcs_port), (bind_host, gcs_remote_port), self.system_id, 1)
+            except OSError:
+                self.link.close()
+                raise
+            self.links.append(self.gcs_link)
+        self.reply_link = self.link  # the link of the request being handled: answers go back on it
+        self.transfer = missions.MissionTransfer(self.mav, self._reply, self._on_mission_changed)
+        self.streams = {self.link: telemetry.Streams(self.t(now), telemetry.ONBOARD_RATES_HZ)}
+        if self.gcs_link:
+            self.streams[self.gcs_link] = telemetry.Streams(self.t(now), telemetry.GCS_RATES_HZ)
         self.telemetry = telemetry.TelemetryBuilder(self.mav, self.frame, self.params)
         self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
@@ -63,10 +83,12 @@ class SimulatedPx4:
         self.signing_key_file = signing_key_file
         if signing_key_file:
             try:
-                self.link.enable_signing(*read_signing_key(signing_key_file), required=True)
+                key, timestamp = read_signing_key(signing_key_file)
             except SigningKeyError:
-                self.link.close()
+                self.close_links()
                 raise
+            for link in self.links:
+                link.enable_signing(key, timestamp, required=True)
         self.allowed_systems = frozenset(allowed_systems)  # empty: commands from anyone
         self.commands = {
             mavlink.MAV_CMD_DO_SET_MODE: self._cmd_set_mode,
@@ -95,7 +117,18 @@ class SimulatedPx4:
     # -- receive ---------------------------------------------------------------------------
 
     def _register(self):
-        on, control = self.link.on, self._control
+        for link in self.links:
+            self._register_on(link)
+
+    def _register_on(self, link):
+        def on(msg_type, handler):
+            def handle(msg):
+                self.reply_link = link
+                handler(msg)
+            link.on(msg_type, handle)
+
+        def control(msg_type, handler):
+            on(msg_type, self._control(msg_type, handler))
         # what changes the vehicle (commands, setpoints, parameters, missions, the key) is
         # taken from the allowed systems only; reading is open to anyone
         control('COMMAND_LONG', self._on_command)
@@ -117,6 +150,7 @@ class SimulatedPx4:
         on('TIMESYNC', self._on_timesync)
 
     def _control(self, msg_type, handler):
+        """`handler` for the allowed systems only."""
         def handle(msg):
             if not self.allowed_systems or msg.get_srcSystem() in self.allowed_systems:
                 handler(msg)
@@ -126,7 +160,15 @@ class SimulatedPx4:
             if n <= 3 or n % 100 == 0:
                 log.warning('ignored %s from system %d: not in the allowed systems %s (%d ignored so far)',
                             msg_type, msg.get_srcSystem(), sorted(self.allowed_systems), n)
-        self.link.on(msg_type, handle)
+        return handle
+
+    def _reply(self, msg):
+        """Send an answer on the link its request came from."""
+        return self.reply_link.send(msg)
+
+    def _broadcast(self, msg):
+        for link in self.links:
+            link.send(msg)
 
     def _for_me(self, msg):
         """PX4 takes messages for its system id or for all (0), on component 1 or all (0)."""
@@ -142,7 +184,7 @@ class SimulatedPx4:
         return handle
 
     def _ack(self, msg, command, result):
-        self.link.send(self.mav.command_ack_encode(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+        self._reply(self.mav.command_ack_encode(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
 
     def _on_set_mode(self, msg):
         if msg.target_system != self.system_id:
@@ -161,7 +203,7 @@ class SimulatedPx4:
             # PX4's MAVLink module acknowledges at once, then the commander gives its own result
             self._ack(msg, msg.command, ACCEPTED)
         handler = self.commands.get(msg.command)
-        result = handler(msg, self.t()) if handler else mavlink.MAV_RESULT_UNSUPPORTED
+        result = handler(msg, self.t()) if handler else UNSUPPORTED
         self._ack(msg, msg.command, result)
         self._say_events()
 
@@ -186,23 +228,26 @@ class SimulatedPx4:
         return self.flight.start_mission(first, now)
 
     def _cmd_set_message_interval(self, msg, now):
+        """On the link the command came from, as PX4 (each MAVLink instance has its streams)."""
         ok = math.isfinite(msg.param1) and math.isfinite(msg.param2) and \
-            self.streams.set_interval(msg.param1, msg.param2, now)
+            self.streams[self.reply_link].set_interval(msg.param1, msg.param2, now)
         return ACCEPTED if ok else FAILED
 
     def _cmd_get_message_interval(self, msg, now):
         if not math.isfinite(msg.param1):
             return DENIED
-        self.link.send(self.mav.message_interval_encode(int(msg.param1) & 0xFFFF, self.streams.interval_us(msg.param1)))
+        self._reply(self.mav.message_interval_encode(int(msg.param1) & 0xFFFF,
+                                                     self.streams[self.reply_link].interval_us(msg.param1)))
         return ACCEPTED
 
     def _cmd_request_message(self, msg, now):
+        """PX4 answers DENIED for what it cannot send (an unknown id, home before there is one)."""
         msg_id = REQUESTED_BY_COMMAND.get(msg.command, msg.param1)
-        name = self.streams.names_by_id.get(int(msg_id)) if math.isfinite(msg_id) else None
+        name = telemetry.NAMES_BY_ID.get(int(msg_id)) if math.isfinite(msg_id) else None
         reply = self.telemetry.build(name, self.flight.status(now), now) if name else None
         if reply is None:
-            return FAILED
-        self.link.send(reply)
+            return DENIED
+        self._reply(reply)
         return ACCEPTED
 
     def _cmd_inject_failure(self, msg, now):
@@ -244,7 +289,7 @@ class SimulatedPx4:
         name = msg.param_id if msg.param_index < 0 else (
             self.params.names[msg.param_index] if msg.param_index < len(self.params) else None)
         if name in self.params.names:
-            self.link.send(self._param_value(name))
+            self._reply(self._param_value(name))
 
     def _on_param_set(self, msg):
         if not self._for_me(msg):
@@ -258,7 +303,7 @@ class SimulatedPx4:
             self.params.set(name, param_codec.decode(d.type, msg.param_value))
         except sim_params.ParamRejected as err:
             self._text(mavlink.MAV_SEVERITY_WARNING, str(err))
-        self.link.send(self._param_value(name))  # the value in force, changed or not
+        self._broadcast(self._param_value(name))  # the value in force, changed or not; PX4 tells every link
 
     def _on_setup_signing(self, msg):
         """SETUP_SIGNING sets the key (all zeros clears it); with a key in force, only a frame
@@ -267,10 +312,12 @@ class SimulatedPx4:
             return
         key = bytes(msg.secret_key)
         if any(key):
-            self.link.enable_signing(key, msg.initial_timestamp, required=True)
+            for link in self.links:
+                link.enable_signing(key, msg.initial_timestamp, required=True)
             log.info('signing key set by SETUP_SIGNING from system %d', msg.get_srcSystem())
         else:
-            self.link.disable_signing()
+            for link in self.links:
+                link.disable_signing()
             log.info('signing key cleared by SETUP_SIGNING from system %d', msg.get_srcSystem())
         if self.signing_key_file:
             try:
@@ -279,16 +326,14 @@ class SimulatedPx4:
                 log.error('cannot write the signing key file %s: %s', self.signing_key_file, err)
 
     def _on_timesync(self, msg):
+        """Answer a request (tc1 0) with the boot clock in ns, the clock of time_boot_ms, as PX4;
+        answers to our own requests (tc1 set) are taken silently."""
         if msg.tc1 == 0:
-            self.link.send(self.mav.timesync_encode(int(self.clock() * 1e9), msg.ts1))
-
-    def _on_timesync(self, msg):
-        if msg.tc1 == 0:
-            self.link.send(self.mav.timesync_encode(int(self.clock() * 1e9), msg.ts1))
+            self._reply(self.mav.timesync_encode(int(self.t() * 1e9), msg.ts1))
 
     def _set_current(self, seq):
         if self.flight.set_mission_current(seq):
-            self.link.send(self.telemetry.build('MISSION_CURRENT', self.status(), self.t()))
+            self._broadcast(self.telemetry.build('MISSION_CURRENT', self.status(), self.t()))
 
     def _on_mission_changed(self, mission_type):
         if mission_type == missions.MISSION_TYPE_MISSION:
@@ -299,7 +344,7 @@ class SimulatedPx4:
 
     def _text(self, severity, text):
         log.info('%s', text)
-        self.link.send(self.telemetry.statustext(severity, text))
+        self._broadcast(self.telemetry.statustext(severity, text))
 
     def _say_events(self):
         """What the flight stack said, on the link."""
@@ -312,26 +357,29 @@ class SimulatedPx4:
             if isinstance(event, ev.ModeChanged):
                 log.info('mode %s%s, %s', status.nav_mode, ' (failsafe)' if status.failsafe else '',
                          'armed' if status.armed else 'disarmed')
-                self.link.send(self.telemetry.current_mode(status))
+                self._broadcast(self.telemetry.current_mode(status))
             elif isinstance(event, ev.StatusText):
                 self._text(event.severity, event.text)
             elif isinstance(event, ev.MissionCurrent):
-                self.link.send(self.telemetry.build('MISSION_CURRENT', status, now))
+                self._broadcast(self.telemetry.build('MISSION_CURRENT', status, now))
             elif isinstance(event, ev.ItemReached):
-                self.link.send(self.mav.mission_item_reached_encode(event.seq))
+                self._broadcast(self.mav.mission_item_reached_encode(event.seq))
 
     def step(self, dt):
         now = self.t()
         self.flight.step(now, dt)
         self.transfer.tick(now)
         self._say_events()
-        due = self.streams.due(now)
-        if due:
-            status = self.flight.status(now)
-            for name in due:
-                msg = self.telemetry.build(name, status, now)
+        status, built = None, {}
+        for link, streams in self.streams.items():
+            for name in streams.due(now):
+                if name not in built:  # one message per step for all the links that want it
+                    if status is None:
+                        status = self.flight.status(now)
+                    built[name] = self.telemetry.build(name, status, now)
+                msg = built[name]
                 if msg is not None:
-                    self.link.send(msg)
+                    link.send(msg)
 
     # -- the loop --------------------------------------------------------------------------
 
@@ -341,13 +389,14 @@ class SimulatedPx4:
         self.running = True
         next_s = self.clock()
         end_s = None if duration_s is None else next_s + duration_s
-        log.info('simulated PX4 sysid %d on udp %s:%d -> %s:%d', self.system_id, self.link.bind[0],
-                 self.link.bind[1], *self.link.remote)
+        for link, kind in zip(self.links, ('onboard', 'GCS')):
+            log.info('simulated PX4 sysid %d, %s link on udp %s:%d -> %s:%d', self.system_id, kind, link.bind[0],
+                     link.bind[1], *link.remote)
         while self.running and (end_s is None or self.clock() < end_s):
             timeout = max(0.0, next_s - self.clock())
-            readable, _, _ = select.select([self.link], [], [], timeout)
-            if readable:
-                self.link.receive()
+            readable, _, _ = select.select(self.links, [], [], timeout)
+            for link in readable:
+                link.receive()
             now = self.clock()
             if now >= next_s:
                 self.step(period)
@@ -359,6 +408,11 @@ class SimulatedPx4:
         self.running = False
 
     def close(self):
-        log.info('link: %s; vehicle: %s', ', '.join('%s %d' % kv for kv in sorted(self.link.stats.items())),
-                 ', '.join('%s %d' % kv for kv in sorted(self.counters.items())))
-        self.link.close()
+        for link, kind in zip(self.links, ('onboard', 'GCS')):
+            log.info('%s link: %s', kind, ', '.join('%s %d' % kv for kv in sorted(link.stats.items())))
+        log.info('vehicle: %s', ', '.join('%s %d' % kv for kv in sorted(self.counters.items())))
+        self.close_links()
+
+    def close_links(self):
+        for link in self.links:
+            link.close()

@@ -72,7 +72,8 @@ def _system_ids(text):
 def parser():
     p = argparse.ArgumentParser(prog='sim_px4.py', description=(
         'A simulated PX4 multicopter on MAVLink 2 over UDP, as PX4 SITL: system id N+1, '
-        'local port 14580+N, sending to 14540+N and answering whoever talks to it.'))
+        'onboard link on local port 14580+N sending to 14540+N, ground-station link on 18570+N '
+        'sending to 14550; each answers whoever talks to it.'))
     p.add_argument('params', nargs='*', metavar='NAME=VALUE', help='parameter overrides, e.g. COM_OF_LOSS_T=1.0')
     p.add_argument('-i', '--instance', type=_instance, default=0, help='SITL instance N (default 0)')
     p.add_argument('--home', type=_home, default=DEFAULT_HOME,
@@ -83,6 +84,10 @@ def parser():
     p.add_argument('--bind', default='127.0.0.1', help='address to bind (default 127.0.0.1: loopback only)')
     p.add_argument('--local-port', type=int, help='UDP port to bind (default 14580+N)')
     p.add_argument('--remote-port', type=int, help='UDP port to send to until a client talks (default 14540+N)')
+    p.add_argument('--gcs-port', type=int, help='UDP port of the ground-station link (default 18570+N, as PX4 SITL)')
+    p.add_argument('--gcs-remote-port', type=int,
+                   help='UDP port the ground-station link sends to until a client talks to it (default 14550)')
+    p.add_argument('--no-gcs', action='store_true', help='no ground-station link (only the onboard link)')
     p.add_argument('--ready-delay', type=float, default=5.0,
                    help='seconds after boot before arming is allowed (default 5, as PX4 SITL)')
     p.add_argument('--rc', action='store_true', help='simulate an RC link (sticks centred)')
@@ -112,7 +117,8 @@ def main(argv=None):
         sim = SimulatedPx4(instance=args.instance, home=home, bind_host=args.bind,
                            local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
                            ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate,
-                           signing_key_file=args.signing_key, allowed_systems=args.allow_sysid)
+                           signing_key_file=args.signing_key, allowed_systems=args.allow_sysid,
+                           gcs=not args.no_gcs, gcs_port=args.gcs_port, gcs_remote_port=args.gcs_remote_port)
     except (ParamRejected, SigningKeyError) as err:
         logging.error('%s', err)
         return 2

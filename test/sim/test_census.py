@@ -1,0 +1,218 @@
+"""The simulated PX4 held to the census of real PX4 SITL (px4_census.json beside this file):
+what its onboard link sends, at which rates, with which fields, and how it answers.
+
+Rates are measured on the ground, disarmed, after "ready", over 5 s, from the arrival times
+of each type ((n - 1) / (last - first), so a 0.5 Hz stream needs no 20 s window), and must be
+within 10 % of PX4's. The ids the census could not name are listed there and not checked.
+"""
+
+import json
+import math
+import os
+import socket
+import time
+
+from conftest import ACCEPTED, DENIED, FAILED, UNSUPPORTED, Client
+
+from offboard_py.dialect import FAILURE_TYPE_OFF, FAILURE_TYPE_OK, FAILURE_UNIT_SENSOR_GYRO, MAV_CMD_INJECT_FAILURE
+from offboard_py.dialect import mavlink
+
+CENSUS = json.load(open(os.path.join(os.path.dirname(os.path.abspath(__file__)), 'px4_census.json')))
+FAST = ('--ready-delay', '1')
+WINDOW_S = 5.0
+PREARM = mavlink.MAV_SYS_STATUS_PREARM_CHECK
+
+
+def measured_rates(client, t0, t1):
+    arrivals = {}
+    for t, m in list(client.history):
+        if t0 <= t <= t1:
+            arrivals.setdefault(m.get_type(), []).append(t)
+    return {name: (len(ts) - 1) / (ts[-1] - ts[0]) if len(ts) > 1 and ts[-1] > ts[0] else 0.0
+            for name, ts in arrivals.items()}
+
+
+def rate_errors(rates, expected_hz, tolerance=0.10):
+    return ['%s %.2f Hz (PX4 %.2f)' % (name, rates.get(name, 0.0), hz)
+            for name, hz in sorted(expected_hz.items()) if abs(rates.get(name, 0.0) - hz) > tolerance * hz]
+
+
+def wait_ready(client, timeout_s=10.0):
+    client.wait_for(lambda: client.latest.get('HEARTBEAT') and
+                    client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_STANDBY, timeout_s, 'STANDBY')
+
+
+def sys_status_health(client):
+    return client.latest['SYS_STATUS'].onboard_control_sensors_health
+
+
+def test_onboard_rates_and_fields_as_px4_sitl(start_sim):
+    _, client = start_sim(*FAST)
+    wait_ready(client)
+    t0 = time.monotonic()
+    time.sleep(WINDOW_S)
+    rates = measured_rates(client, t0, time.monotonic())
+    print('onboard link, Hz:', ', '.join('%s %.2f' % kv for kv in sorted(rates.items())))
+    errors = rate_errors(rates, CENSUS['rates_hz'])
+    assert not errors, 'rates off by more than 10 %%: %s; measured %s' % (
+        ', '.join(errors), {k: round(v, 2) for k, v in sorted(rates.items())})
+    unexpected = set(rates) - set(CENSUS['rates_hz'])
+    assert not unexpected, 'types PX4 does not send on this link: %s' % sorted(unexpected)
+
+    fields = CENSUS['fields']
+    latest = client.latest
+    for name in ('HEARTBEAT', 'SYS_STATUS', 'GPS_RAW_INT', 'BATTERY_STATUS', 'ESTIMATOR_STATUS', 'EXTENDED_SYS_STATE'):
+        msg = latest[name]
+        for field, want in fields[name].items():
+            want = int(want, 16) if isinstance(want, str) else want
+            assert getattr(msg, field) == want, '%s.%s = %r, PX4 %r' % (name, field, getattr(msg, field), want)
+    alt = latest['ALTITUDE']
+    for field in ('altitude_amsl', 'altitude_local', 'altitude_relative', 'altitude_monotonic', 'altitude_terrain',
+                  'bottom_clearance'):
+        assert math.isfinite(getattr(alt, field)), 'ALTITUDE.%s is %r' % (field, getattr(alt, field))
+    assert abs(latest['SYSTEM_TIME'].time_unix_usec / 1e6 - time.time()) < 1.0, 'SYSTEM_TIME carries Unix time'
+    odom, pos = latest['ODOMETRY'], latest['LOCAL_POSITION_NED']
+    assert (odom.frame_id, odom.child_frame_id) == (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_BODY_FRD)
+    assert abs(odom.z - pos.z) < 0.05 and abs(odom.q[0]) > 0.99, 'ODOMETRY on the ground: %s' % odom
+    assert latest['SERVO_OUTPUT_RAW'].servo1_raw == 1000, 'disarmed motors: 1000 us'
+    assert latest['GPS_RAW_INT'].alt == latest['GLOBAL_POSITION_INT'].alt
+
+
+def test_answers_as_px4_sitl(start_sim):
+    _, client = start_sim(*FAST)
+    wait_ready(client)
+    answers = CENSUS['answers']
+    assert client.command(mavlink.MAV_CMD_REQUEST_MESSAGE, 9999)[0] == answers['REQUEST_MESSAGE(9999)']['result'] \
+        == DENIED
+    assert client.command(31999)[0] == answers['unknown command 31999']['result'] == UNSUPPORTED
+    heartbeat_interval = client.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HEARTBEAT, 100000)
+    assert heartbeat_interval[0] == FAILED, 'HEARTBEAT stays at 1 Hz'
+
+    # AUTOPILOT_VERSION
+    start = len(client.history)
+    assert client.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)[0] == ACCEPTED
+    version = client.wait_for(lambda: next((m for _, m in client.history[start:]
+                                            if m.get_type() == 'AUTOPILOT_VERSION'), None), 2.0, 'AUTOPILOT_VERSION')
+    want = answers['AUTOPILOT_VERSION']
+    assert version.capabilities == int(want['capabilities'], 16), hex(version.capabilities)
+    assert version.flight_sw_version == int(want['flight_sw_version'], 16)
+    assert (version.vendor_id, version.product_id) == (want['vendor_id'], want['product_id'])
+    assert version.uid > 0xFFFFFFFF, 'a 64-bit uid'
+
+    # SET_MESSAGE_INTERVAL(ATTITUDE, 10 Hz): accepted and the rate changes
+    result = client.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 100000)[0]
+    assert result == answers['SET_MESSAGE_INTERVAL(ATTITUDE,10 Hz)']['result'] == ACCEPTED
+    t0 = time.monotonic() + 0.3
+    time.sleep(3.3)
+    rate = measured_rates(client, t0, time.monotonic()).get('ATTITUDE', 0.0)
+    assert abs(rate - 10.0) <= 1.0, 'ATTITUDE at %.1f Hz after SET_MESSAGE_INTERVAL 10 Hz' % rate
+
+    # TIMESYNC: tc1 on the boot clock (the clock of time_boot_ms), ts1 echoed
+    with client.lock:
+        recent = [(t, m.time_boot_ms / 1000.0) for t, m in client.history[-300:]
+                  if m.get_type() == 'ATTITUDE_QUATERNION']
+    offset = min(t - boot for t, boot in recent)  # arrival - boot clock, least delayed sample
+    ts1 = 123456789
+    start = len(client.history)
+    client.send(client.mav.timesync_encode(0, ts1))
+    t, answer = client.wait_for(lambda: next(((t, m) for t, m in client.history[start:]
+                                              if m.get_type() == 'TIMESYNC' and m.tc1 != 0), None), 2.0,
+                                'a TIMESYNC answer')
+    assert answer.ts1 == ts1
+    assert abs(answer.tc1 / 1e9 - (t - offset)) < 0.05, 'tc1 %.3f s, boot clock %.3f s' % (answer.tc1 / 1e9,
+                                                                                           t - offset)
+    requests = [m for _, m in client.history[-300:] if m.get_type() == 'TIMESYNC' and m.tc1 == 0]
+    assert requests and abs(requests[-1].ts1 / 1e9 - (t - offset)) < 1.0, 'PX4 asks with ts1 on its boot clock'
+
+    # MISSION_REQUEST_LIST -> MISSION_COUNT 0
+    start = len(client.history)
+    client.send(client.mav.mission_request_list_encode(client.target, 1, mavlink.MAV_MISSION_TYPE_MISSION))
+    count = client.wait_for(lambda: next((m for _, m in client.history[start:] if m.get_type() == 'MISSION_COUNT'),
+                                         None), 2.0, 'MISSION_COUNT')
+    assert count.count == answers['MISSION_REQUEST_LIST']['count'] == 0
+
+
+def test_readiness_in_heartbeat_and_prearm_bit(start_sim):
+    _, client = start_sim('--ready-delay', '3', 'SYS_FAILURE_EN=1')
+    client.wait_for(lambda: client.latest.get('SYS_STATUS'), 2.0, 'SYS_STATUS')
+    assert client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_UNINIT, 'UNINIT before the checks pass'
+    assert not sys_status_health(client) & PREARM, 'no PREARM_CHECK before ready'
+    wait_ready(client, 6.0)
+    client.wait_for(lambda: sys_status_health(client) & PREARM, 1.0, 'PREARM_CHECK once ready')
+
+    assert client.command(MAV_CMD_INJECT_FAILURE, FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OFF)[0] == ACCEPTED
+    client.wait_for(lambda: not sys_status_health(client) & PREARM, 1.0, 'PREARM_CHECK gone with a failure')
+    client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_UNINIT, 2.0, 'UNINIT')
+    assert client.command(MAV_CMD_INJECT_FAILURE, FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OK)[0] == ACCEPTED
+    wait_ready(client, 2.5)
+
+    assert client.arm() == ACCEPTED
+    client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_ACTIVE, 2.0, 'ACTIVE')
+    assert client.arm(False) == ACCEPTED
+    disarmed = time.monotonic()
+    client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_UNINIT, 1.6,
+                    'UNINIT after the disarm, as PX4')
+    client.wait_for(lambda: not sys_status_health(client) & PREARM, 0.5, 'no PREARM_CHECK just after a disarm')
+    wait_ready(client, 3.0)
+    assert time.monotonic() - disarmed < 3.0
+
+
+def test_battery_drains_while_armed(start_sim):
+    _, client = start_sim(*FAST)
+    wait_ready(client)
+    voltage0 = client.latest['SYS_STATUS'].voltage_battery
+    assert client.arm() == ACCEPTED
+    time.sleep(3.0)
+    status = client.latest['SYS_STATUS']
+    assert status.voltage_battery < voltage0 and status.battery_remaining <= 100
+    assert client.latest['SERVO_OUTPUT_RAW'].servo1_raw >= 1000
+
+
+def test_gcs_link_as_px4_sitl(start_sim):
+    sim, onboard = start_sim(*FAST)
+    gcs = Client(sim.instance, port=sim.gcs_port)
+    try:
+        gcs.wait_heartbeat(5.0)
+        first = next(m for _, m in gcs.history if m.get_type() == 'HEARTBEAT')
+        assert first.get_srcSystem() == onboard.target
+        wait_ready(gcs)
+        t0 = time.monotonic()
+        time.sleep(WINDOW_S)
+        rates = measured_rates(gcs, t0, time.monotonic())
+        print('GCS link, Hz:', ', '.join('%s %.2f' % kv for kv in sorted(rates.items())))
+        # the faster streams; 0.1-0.5 Hz ones give one or two samples in 5 s
+        fast = {name: hz for name, hz in CENSUS['gcs_rates_hz'].items() if hz >= 1.0}
+        errors = rate_errors(rates, fast)
+        assert not errors, 'GCS link rates: %s; measured %s' % (', '.join(errors), rates)
+        assert 'HIGHRES_IMU' not in rates and 'TIMESYNC' not in rates, 'the normal set has no IMU or timesync stream'
+
+        # answers go back on the link the request came from
+        n_onboard = len(onboard.acks)
+        assert gcs.command(31999)[0] == UNSUPPORTED
+        start = len(gcs.history)
+        gcs.send(gcs.mav.param_request_read_encode(gcs.target, 1, b'MAV_TYPE', -1))
+        value = gcs.wait_for(lambda: next((m for _, m in gcs.history[start:] if m.get_type() == 'PARAM_VALUE'),
+                                          None), 2.0, 'PARAM_VALUE on the GCS link')
+        assert value.param_id == 'MAV_TYPE'
+        gcs.send(gcs.mav.mission_request_list_encode(gcs.target, 1, mavlink.MAV_MISSION_TYPE_MISSION))
+        gcs.wait_for(lambda: any(m.get_type() == 'MISSION_COUNT' for _, m in gcs.history[start:]), 2.0,
+                     'MISSION_COUNT on the GCS link')
+        time.sleep(0.2)
+        assert len(onboard.acks) == n_onboard, 'the onboard client got an ACK for a GCS request'
+    finally:
+        gcs.close()
+
+
+def test_no_gcs_option(start_sim):
+    sim, _ = start_sim('--no-gcs')
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind(('127.0.0.1', sim.gcs_port))
+        sock.settimeout(2.0)
+        try:
+            data = sock.recv(1024)
+        except socket.timeout:
+            data = None
+        assert data is None, 'with --no-gcs nothing goes to the GCS port'
+    finally:
+        sock.close()
