@@ -408,9 +408,11 @@ class SimulatedPx4:
         self.running = False
 
     def close(self):
-        for link, kind in zip(self.links, ('onboard', 'GCS')):
-            log.info('%s link: %s', kind, ', '.join('%s %d' % kv for kv in sorted(link.stats.items())))
-        log.info('vehicle: %s', ', '.join('%s %d' % kv for kv in sorted(self.counters.items())))
+        def counts(counter):
+            return ', '.join('%s %d' % kv for kv in sorted(counter.items()))
+        log.info('link: %s; vehicle: %s', counts(self.link.stats), counts(self.counters))
+        if self.gcs_link:
+            log.info('GCS link: %s', counts(self.gcs_link.stats))
         self.close_links()
 
     def close_links(self):
