@@ -4,4 +4,5 @@ from catkin_pkg.python_setup import generate_distutils_setup
 
 setup(**generate_distutils_setup(
     packages=['offboard_py', 'offboard_py.sim', 'offboard_py.bridge', 'offboard_py.testing'],
-    package_dir={'': 'src'}))
+    package_dir={'': 'src'},
+    package_data={'offboard_py.sim': ['px4_params.tsv']}))

@@ -1,55 +1,97 @@
-"""PX4 parameters of the simulated autopilot: names, types, defaults, ranges, wire encoding.
+"""PX4's parameters in the simulated autopilot: PX4 SITL's whole table, typed, range-checked
+where the simulator models the parameter, with PX4's wire encoding.
 
-Defaults are PX4's for a multicopter, except COM_OF_LOSS_T: 0.5 s, the figure of the
-tutorial this project ports (PX4 1.12+ ships 1.0; override with COM_OF_LOSS_T=1.0).
-INT32 parameters travel bytewise in PARAM_VALUE's float field, as on PX4 (offboard_py.param_codec).
+The table is px4_params.tsv beside this module: name, type (INT32/REAL32) and value of every
+parameter PX4 SITL (main, about 1.18-dev, sihsim_quadx, fresh parameters) sends for a
+PARAM_REQUEST_LIST, in PX4's order (sorted by name; PARAM_VALUE's index is the position here).
+869 rows are one recorded pass of real PX4 SITL (shared/reference/px4-sitl-params.tsv). PX4
+counts 888; the recording lacks the head of the list, and 18 of those were taken from PX4's
+sources: the attitude estimator switch ATT_EN (checked by the start-up script beside LPE_EN and
+EKF2_EN), battery 1 of the battery library (BAT1_CAPACITY, BAT1_N_CELLS 4 as SITL's start-up
+script sets it, BAT1_R_INTERNAL, BAT1_SOURCE, BAT1_V_CHARGED, BAT1_V_EMPTY) and its shared
+thresholds (BAT_AVRG_CURRENT, BAT_CRIT_THR, BAT_EMERGEN_THR, BAT_LOW_THR), and the first
+accelerometer's calibration (CAL_ACC0_ID 1310988 as SITL sets it, CAL_ACC0_PRIO, _ROT, _XOFF,
+_XSCALE, _YOFF, _YSCALE). The 888th is not identified, so the list has 887.
+
+Defaults are PX4 SITL's values, among them COM_OF_LOSS_T 1.0 s; the tutorial's 0.5 s is one
+override away (`sim_px4.py COM_OF_LOSS_T=0.5`).
+The parameters the simulator reads (RANGES) refuse a value outside PX4's documented range;
+every other one is stored and echoed as given, any finite number, as PX4 keeps a value no
+module checks. INT32 parameters take integers only, and travel bytewise in PARAM_VALUE's
+float field, as on PX4 (offboard_py.param_codec).
 A change takes effect at once: the other modules read values here every time.
 """
 
 import math
+import os
 from collections import namedtuple
 
 from offboard_py import param_codec
 from offboard_py.dialect import mavlink
 
-Param = namedtuple('Param', 'name type default minimum maximum')
+Param = namedtuple('Param', 'name type default minimum maximum')  # minimum, maximum: None when not checked
 
-_INT, _FLOAT = mavlink.MAV_PARAM_TYPE_INT32, mavlink.MAV_PARAM_TYPE_REAL32
-DEFINITIONS = (
-    Param('MAV_TYPE', _INT, 2, 0, 43),
-    Param('MAV_SYS_ID', _INT, 1, 1, 250),
-    Param('COM_OF_LOSS_T', _FLOAT, 0.5, 0.0, 60.0),
-    Param('COM_OBL_RC_ACT', _INT, 0, 0, 7),
-    Param('COM_RCL_EXCEPT', _INT, 0, 0, 31),
-    Param('NAV_RCL_ACT', _INT, 2, 0, 6),
-    Param('COM_DISARM_PRFLT', _FLOAT, 10.0, -1.0, 20.0),
-    Param('COM_DISARM_LAND', _FLOAT, 2.0, -1.0, 20.0),
-    Param('COM_SPOOLUP_TIME', _FLOAT, 1.0, 0.0, 5.0),
-    Param('MIS_TAKEOFF_ALT', _FLOAT, 2.5, 0.0, 80.0),
-    Param('NAV_ACC_RAD', _FLOAT, 10.0, 0.05, 200.0),
-    Param('NAV_MC_ALT_RAD', _FLOAT, 0.8, 0.05, 200.0),
-    Param('RTL_RETURN_ALT', _FLOAT, 60.0, 0.0, 150.0),
-    Param('RTL_DESCEND_ALT', _FLOAT, 30.0, 2.0, 100.0),
-    Param('RTL_MIN_DIST', _FLOAT, 10.0, 0.5, 100.0),
-    Param('MPC_Z_VEL_MAX_UP', _FLOAT, 3.0, 0.5, 8.0),
-    Param('MPC_Z_VEL_MAX_DN', _FLOAT, 1.5, 0.5, 4.0),
-    Param('MPC_XY_VEL_MAX', _FLOAT, 12.0, 0.0, 20.0),
-    Param('MPC_XY_CRUISE', _FLOAT, 5.0, 3.0, 20.0),
-    Param('MPC_TKO_SPEED', _FLOAT, 1.5, 1.0, 5.0),
-    Param('MPC_TKO_RAMP_T', _FLOAT, 3.0, 0.0, 5.0),
-    Param('MPC_LAND_SPEED', _FLOAT, 0.7, 0.6, 4.0),
-    Param('MPC_LAND_ALT1', _FLOAT, 10.0, 0.0, 122.0),
-    Param('MPC_LAND_ALT2', _FLOAT, 5.0, 0.0, 122.0),
-    Param('MPC_ACC_HOR_MAX', _FLOAT, 5.0, 2.0, 15.0),
-    Param('MPC_ACC_UP_MAX', _FLOAT, 4.0, 2.0, 15.0),
-    Param('MPC_ACC_DOWN_MAX', _FLOAT, 3.0, 2.0, 15.0),
-    Param('MPC_TILTMAX_AIR', _FLOAT, 45.0, 20.0, 89.0),
-    Param('MPC_XY_P', _FLOAT, 0.95, 0.0, 2.0),
-    Param('MPC_Z_P', _FLOAT, 1.0, 0.1, 1.5),
-    Param('MPC_XY_VEL_P_ACC', _FLOAT, 1.8, 1.2, 5.0),
-    Param('MPC_Z_VEL_P_ACC', _FLOAT, 4.0, 2.0, 15.0),
-    Param('SYS_FAILURE_EN', _INT, 0, 0, 1),
-)
+TABLE_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'px4_params.tsv')
+TYPES = {'INT32': mavlink.MAV_PARAM_TYPE_INT32, 'REAL32': mavlink.MAV_PARAM_TYPE_REAL32}
+INT32_MIN, INT32_MAX = -2 ** 31, 2 ** 31 - 1
+
+# [minimum, maximum] of the parameters the simulator models (commander, navigator, vehicle), from
+# PX4's parameter definitions; PX4 refuses values outside these for the ones its modules check.
+RANGES = {
+    'MAV_TYPE': (0, 43),
+    'MAV_SYS_ID': (1, 250),
+    'COM_OF_LOSS_T': (0.0, 60.0),
+    'COM_OBL_RC_ACT': (0, 7),
+    'COM_RCL_EXCEPT': (0, 31),
+    'NAV_RCL_ACT': (0, 6),
+    'COM_DISARM_PRFLT': (-1.0, 20.0),
+    'COM_DISARM_LAND': (-1.0, 20.0),
+    'COM_SPOOLUP_TIME': (0.0, 5.0),
+    'MIS_TAKEOFF_ALT': (0.0, 80.0),
+    'NAV_ACC_RAD': (0.05, 200.0),
+    'NAV_MC_ALT_RAD': (0.05, 200.0),
+    'RTL_RETURN_ALT': (0.0, 150.0),
+    'RTL_DESCEND_ALT': (2.0, 100.0),
+    'RTL_MIN_DIST': (0.5, 100.0),
+    'MPC_Z_VEL_MAX_UP': (0.5, 8.0),
+    'MPC_Z_VEL_MAX_DN': (0.5, 4.0),
+    'MPC_XY_VEL_MAX': (0.0, 20.0),
+    'MPC_XY_CRUISE': (3.0, 20.0),
+    'MPC_TKO_SPEED': (1.0, 5.0),
+    'MPC_TKO_RAMP_T': (0.0, 5.0),
+    'MPC_LAND_SPEED': (0.6, 4.0),
+    'MPC_LAND_ALT1': (0.0, 122.0),
+    'MPC_LAND_ALT2': (0.0, 122.0),
+    'MPC_ACC_HOR_MAX': (2.0, 15.0),
+    'MPC_ACC_UP_MAX': (2.0, 15.0),
+    'MPC_ACC_DOWN_MAX': (2.0, 15.0),
+    'MPC_TILTMAX_AIR': (20.0, 89.0),
+    'MPC_XY_P': (0.0, 2.0),
+    'MPC_Z_P': (0.1, 1.5),
+    'MPC_XY_VEL_P_ACC': (1.2, 5.0),
+    'MPC_Z_VEL_P_ACC': (2.0, 15.0),
+    'SYS_FAILURE_EN': (0, 1),
+}
+
+
+def load_table(path=TABLE_PATH, ranges=RANGES):
+    """The Params of a table file (NAME<TAB>INT32|REAL32<TAB>value; '#' starts a comment line), in its order."""
+    table = []
+    with open(path) as f:
+        for line_no, line in enumerate(f, 1):
+            if not line.strip() or line.startswith('#'):
+                continue
+            try:
+                name, type_name, text = line.rstrip('\n').split('\t')
+                param_type = TYPES[type_name]
+                default = int(text) if param_codec.is_integer(param_type) else float(text)
+            except (KeyError, ValueError) as err:
+                raise ValueError('%s:%d: expected NAME<TAB>INT32|REAL32<TAB>number (%s)' % (path, line_no, err))
+            table.append(Param(name, param_type, default, *ranges.get(name, (None, None))))
+    return tuple(table)
+
+
+DEFINITIONS = load_table()
 
 
 class ParamRejected(ValueError):
@@ -57,12 +99,13 @@ class ParamRejected(ValueError):
 
 
 class ParamStore:
-    """The parameter table: ordered (PARAM_VALUE index), typed, range-checked."""
+    """The parameter table: ordered (PARAM_VALUE index), typed, range-checked where modelled."""
 
-    def __init__(self, overrides=None, system_id=1):
-        self._defs = {p.name: p for p in DEFINITIONS}
-        self.names = [p.name for p in DEFINITIONS]
-        self._values = {p.name: p.default for p in DEFINITIONS}
+    def __init__(self, overrides=None, system_id=1, definitions=DEFINITIONS):
+        self._defs = {p.name: p for p in definitions}
+        self.names = [p.name for p in definitions]
+        self._index = {name: i for i, name in enumerate(self.names)}
+        self._values = {p.name: p.default for p in definitions}
         self._values['MAV_SYS_ID'] = system_id
         for name, value in (overrides or {}).items():
             self.set(name, value)
@@ -77,7 +120,7 @@ class ParamStore:
         return self._defs[name]
 
     def index(self, name):
-        return self.names.index(name)
+        return self._index[name]
 
     def set(self, name, value):
         """Set `name` to a Python number; raise ParamRejected naming what is wrong."""
@@ -90,9 +133,11 @@ class ParamStore:
             if value != int(value):
                 raise ParamRejected('%s is an integer parameter, got %r' % (name, value))
             value = int(value)
+            if not INT32_MIN <= value <= INT32_MAX:
+                raise ParamRejected('%s=%d does not fit INT32 [%d, %d]' % (name, value, INT32_MIN, INT32_MAX))
         else:
             value = float(value)
-        if not p.minimum <= value <= p.maximum:
+        if p.minimum is not None and not p.minimum <= value <= p.maximum:
             raise ParamRejected('%s=%r is outside [%g, %g]' % (name, value, p.minimum, p.maximum))
         self._values[name] = value
         return value
