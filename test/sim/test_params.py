@@ -1,0 +1,80 @@
+"""The simulated PX4's parameter protocol over UDP, as PX4 SITL answers it (no ROS).
+
+PX4 SITL answers PARAM_REQUEST_LIST with all its parameters (param_count 888, the index of each
+in name order) in under 1 s on loopback, while its streams go on; it echoes every PARAM_SET
+with the value in force (shared/reference/px4-sitl-measured.md).
+"""
+
+import struct
+import time
+
+from offboard_py import param_codec
+from offboard_py.dialect import mavlink
+from offboard_py.sim.params import DEFINITIONS
+
+FAST = ('--ready-delay', '1')
+INT32, REAL32 = mavlink.MAV_PARAM_TYPE_INT32, mavlink.MAV_PARAM_TYPE_REAL32
+TABLE = {p.name: (i, p) for i, p in enumerate(DEFINITIONS)}
+LIST_BOUND_S = 10.0        # PX4: under 1 s; ours is paced through its 100 Hz loop
+ATTITUDE_GAP_BOUND_S = 0.1  # ATTITUDE is 100 Hz: the loop must not stall while the list goes out
+
+
+def param_values_since(client, start):
+    return [(t, m) for t, m in list(client.history[start:]) if m.get_type() == 'PARAM_VALUE']
+
+
+def wait_param_value(client, start, name, timeout_s=2.0):
+    return client.wait_for(lambda: next((m for _, m in param_values_since(client, start) if m.param_id == name), None),
+                           timeout_s, 'PARAM_VALUE ' + name)
+
+
+def test_param_request_list_sends_the_whole_table_while_the_streams_go_on(start_sim):
+    _, client = start_sim(*FAST)
+    time.sleep(0.5)
+    start = len(client.history)
+    t0 = time.monotonic()
+    client.send(client.mav.param_request_list_encode(client.target, 1))
+
+    def indices():
+        got = param_values_since(client, start)
+        return got and len({m.param_index for _, m in got}) >= got[0][1].param_count
+    client.wait_for(indices, LIST_BOUND_S, 'the whole list (%d PARAM_VALUE)' % len(DEFINITIONS))
+    got = param_values_since(client, start)
+    elapsed = got[-1][0] - t0
+    print('PARAM_REQUEST_LIST: %d PARAM_VALUE in %.3f s' % (len(got), elapsed))
+    assert {m.param_count for _, m in got} == {len(DEFINITIONS)}, 'param_count is the table\'s length'
+    by_index = {m.param_index: m for _, m in got}
+    assert sorted(by_index) == list(range(len(DEFINITIONS)))
+    assert [by_index[i].param_id for i in range(len(DEFINITIONS))] == [p.name for p in DEFINITIONS], 'PX4\'s order'
+    for name, value in (('SYS_AUTOSTART', 10040), ('MPC_XY_VEL_MAX', 12.0), ('RTL_RETURN_ALT', 30.0)):
+        index, p = TABLE[name]
+        m = by_index[index]
+        assert (m.param_id, m.param_type) == (name, p.type)
+        assert param_codec.decode(m.param_type, m.param_value) == value, name
+    # the 100 Hz loop went on: ATTITUDE kept coming while the list went out
+    attitude = [t for t, m in list(client.history[start:]) if m.get_type() == 'ATTITUDE' and t0 <= t <= got[-1][0]]
+    gaps = [b - a for a, b in zip([t0] + attitude, attitude + [got[-1][0]])]
+    print('ATTITUDE during the list: %d, longest gap %.3f s' % (len(attitude), max(gaps)))
+    assert max(gaps) <= ATTITUDE_GAP_BOUND_S, 'ATTITUDE stalled %.3f s while the list went out' % max(gaps)
+
+
+def test_param_set_is_echoed_for_unmodelled_and_modelled_parameters(start_sim):
+    _, client = start_sim(*FAST)
+    # SYS_AUTOSTART: no module of ours reads it; PX4 stores and echoes it (INT32, bytewise)
+    start = len(client.history)
+    wire = struct.unpack('<f', struct.pack('<i', 4001))[0]
+    client.send(client.mav.param_set_encode(client.target, 1, b'SYS_AUTOSTART', wire, INT32))
+    echo = wait_param_value(client, start, 'SYS_AUTOSTART')
+    assert (echo.param_type, echo.param_index, echo.param_count) == (INT32, TABLE['SYS_AUTOSTART'][0], len(DEFINITIONS))
+    assert param_codec.decode(INT32, echo.param_value) == 4001
+    start = len(client.history)
+    client.send(client.mav.param_request_read_encode(client.target, 1, b'', TABLE['SYS_AUTOSTART'][0]))
+    assert param_codec.decode(INT32, wait_param_value(client, start, 'SYS_AUTOSTART').param_value) == 4001
+    # modelled ones: in range taken, out of range refused with the value in force echoed
+    for name, value in (('MPC_XY_VEL_MAX', 8.0), ('RTL_RETURN_ALT', 45.0)):
+        start = len(client.history)
+        client.send(client.mav.param_set_encode(client.target, 1, name.encode(), value, REAL32))
+        assert wait_param_value(client, start, name).param_value == value
+    start = len(client.history)
+    client.send(client.mav.param_set_encode(client.target, 1, b'RTL_RETURN_ALT', 500.0, REAL32))
+    assert wait_param_value(client, start, 'RTL_RETURN_ALT').param_value == 45.0, 'RTL_RETURN_ALT is 0..150 m'
