@@ -59,7 +59,10 @@ class BridgeTest(OffboardTestCase):
         self.assertEqual(state.mode, 'AUTO.LOITER')
         self.assertTrue(state.guided, 'AUTO modes set GUIDED')
         self.assertFalse(state.armed)
-        self.assertEqual(state.system_status, mavlink.MAV_STATE_STANDBY)
+        # PX4 reports UNINIT until its pre-flight checks pass (about 5 s after boot), then STANDBY
+        self.assertIn(state.system_status, (mavlink.MAV_STATE_UNINIT, mavlink.MAV_STATE_STANDBY))
+        self.wait_until(lambda: self.sim.state.system_status == mavlink.MAV_STATE_STANDBY, 10.0,
+                        'system_status STANDBY once the checks pass', [self.sim])
 
     def test_02_mode_strings_for_px4_modes(self):
         self.wait_for_connected(self.sim, 15.0)

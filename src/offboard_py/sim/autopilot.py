@@ -11,6 +11,7 @@ are sent (each message built once per step, whatever the number of links), then 
 flight stack said (mode changes, texts, mission progress) goes out on both links.
 """
 
+import collections
 import logging
 import math
 import select
@@ -34,6 +35,7 @@ SITL_LOCAL_PORT, SITL_REMOTE_PORT = 14580, 14540
 GCS_LOCAL_PORT, GCS_REMOTE_PORT = 18570, 14550  # PX4 SITL's GCS link: 18570+N, to QGroundControl's 14550
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
 
+PARAM_LIST_BATCH = 20  # PARAM_VALUEs per loop step while answering PARAM_REQUEST_LIST
 ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 # What REQUEST_MESSAGE's older, dedicated commands ask for
@@ -71,6 +73,7 @@ class SimulatedPx4:
                 raise
             self.links.append(self.gcs_link)
         self.reply_link = self.link  # the link of the request being handled: answers go back on it
+        self.param_lists = {}  # link -> names of a PARAM_REQUEST_LIST answer still to send
         self.transfer = missions.MissionTransfer(self.mav, self._reply, self._on_mission_changed)
         self.streams = {self.link: telemetry.Streams(self.t(now), telemetry.ONBOARD_RATES_HZ)}
         if self.gcs_link:
@@ -279,24 +282,19 @@ class SimulatedPx4:
                                            d.type, len(self.params), self.params.index(name))
 
     def _on_param_request_list(self, msg):
-        """The whole table on the requesting link, as PX4, paced: `batch` PARAM_VALUEs each loop
-        period from a thread of its own (link.send is thread-safe). All at once they overflow a
-        client's socket buffer (a pymavlink client on loopback got 785 of 887), and the loop must
-        not wait for them: 887 take about 0.45 s, PX4 SITL's take under 1 s."""
-        if not self._for_me(msg):
-            return
-        import threading  # only this handler runs a thread
-        link, names, period, batch = self.reply_link, list(self.params.names), 1.0 / self.rate_hz, 20
+        """The whole table on the requesting link, as PX4, paced by the loop (PARAM_LIST_BATCH a
+        step): all at once they overflow a client's socket buffer (a pymavlink client on loopback
+        got 785 of 887). 887 take about 0.45 s; PX4 SITL's take under 1 s. A new request for the
+        same link starts the list again, as PX4 does."""
+        if self._for_me(msg):
+            self.param_lists[self.reply_link] = collections.deque(self.params.names)
 
-        def send_list():
-            try:
-                for first in range(0, len(names), batch):
-                    for name in names[first:first + batch]:
-                        link.send(self._param_value(name))
-                    time.sleep(period)
-            except (OSError, ValueError):  # the link was closed meanwhile
-                pass
-        threading.Thread(target=send_list, name='param list', daemon=True).start()
+    def _send_param_lists(self):
+        for link, pending in list(self.param_lists.items()):
+            for _ in range(min(PARAM_LIST_BATCH, len(pending))):
+                link.send(self._param_value(pending.popleft()))
+            if not pending:
+                del self.param_lists[link]
 
     def _on_param_request_read(self, msg):
         if not self._for_me(msg):
@@ -385,6 +383,8 @@ class SimulatedPx4:
         self.flight.step(now, dt)
         self.transfer.tick(now)
         self._say_events()
+        if self.param_lists:
+            self._send_param_lists()
         status, built = None, {}
         for link, streams in self.streams.items():
             for name in streams.due(now):
