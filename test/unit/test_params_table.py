@@ -14,7 +14,7 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import params as sim_params
 from offboard_py.sim.params import DEFINITIONS, ParamRejected, ParamStore
 
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 REFERENCE = os.path.join(os.path.dirname(REPO), 'shared', 'reference', 'px4-sitl-params.tsv')
 PX4_PARAM_COUNT = 888    # PX4 SITL's param_count (px4-sitl-census.json)
 TABLE_COUNT = 887        # what the table holds: one of PX4's 888 is not identified (sim/params.py)
