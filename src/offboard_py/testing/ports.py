@@ -8,7 +8,9 @@ A test vehicle is SITL instance N (0..39) and, as in PX4 SITL:
 N stays below 40 so that the FCU and bridge ranges never overlap.
 
 Who uses which N:
-  0..19   the rostests, one block each, given in CMakeLists.txt (`instance:=N`);
+  0..19   the rostests, one block each, given in CMakeLists.txt (`instance:=N`), but not
+          10 or 15: their bridge ports are 14550, where every simulator's GCS link sends
+          (as PX4 SITL's), and 14555, mavros's default GCS bind port;
           two_vehicles.test takes 0 and 1 (multi_uav.launch numbers vehicles from 0)
   20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
   38, 39  a .test file run by hand without `instance:=N` (its default)
