@@ -29,6 +29,8 @@ DEFAULT_REMOTE_PORT = 14550
 # Unlike mavros (0.0.0.0), we listen on loopback unless a bind host is given.
 DEFAULT_BIND_HOST = '127.0.0.1'
 MAX_DATAGRAM = 65535
+# What one batched datagram may carry: within an Ethernet MTU, as PX4's network buffer keeps it
+MAX_BATCH_BYTES = 1400
 
 log = logging.getLogger(__name__)
 
@@ -126,14 +128,30 @@ class MavlinkLink:
 
     # -- send and receive -------------------------------------------------------------------
 
+    def _pack(self, msg):
+        with self._send_lock:
+            self.signing.stamp_outgoing()
+            return msg.pack(self.mav)
+
     def send(self, msg):
         """Pack and send a pymavlink message; False when no remote is known yet."""
         if self.remote is None:
             return False
-        with self._send_lock:
-            self.signing.stamp_outgoing()
-            data = msg.pack(self.mav)
-        return self.send_bytes(data)
+        return self.send_bytes(self._pack(msg))
+
+    def send_many(self, msgs, max_datagram=MAX_BATCH_BYTES):
+        """Several messages in as few datagrams of at most max_datagram bytes as they fit, as
+        PX4's UDP link sends what one loop iteration wrote: one send per datagram, not per message."""
+        if self.remote is None:
+            return False
+        batch = b''
+        for msg in msgs:
+            frame = self._pack(msg)
+            if batch and len(batch) + len(frame) > max_datagram:
+                self.send_bytes(batch)
+                batch = b''
+            batch += frame
+        return self.send_bytes(batch) if batch else True
 
     def send_bytes(self, data):
         if self.remote is None:

@@ -387,14 +387,16 @@ class SimulatedPx4:
             self._send_param_lists()
         status, built = None, {}
         for link, streams in self.streams.items():
+            out = []
             for name in streams.due(now):
                 if name not in built:  # one message per step for all the links that want it
                     if status is None:
                         status = self.flight.status(now)
                     built[name] = self.telemetry.build(name, status, now)
-                msg = built[name]
-                if msg is not None:
-                    link.send(msg)
+                if built[name] is not None:
+                    out.append(built[name])
+            if out:
+                link.send_many(out)  # a step's streams in one datagram, as PX4 sends a loop's output
 
     # -- the loop --------------------------------------------------------------------------
 
