@@ -396,7 +396,7 @@ class SimulatedPx4:
                 if built[name] is not None:
                     out.append(built[name])
             if out:
-                link.send_many(out)  # a step's streams in one datagram, as PX4 sends a loop's output
+                link.send_many(out)  # a step's streams in one datagram (PX4: one per message; see send_many)
 
     # -- the loop --------------------------------------------------------------------------
 

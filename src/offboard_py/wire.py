@@ -1,0 +1,138 @@
+"""MAVLink frames on the wire: split a datagram into frames, check them, and encode messages.
+
+pymavlink decodes every frame it is given into a message object and packs through a chain
+of helper objects; at PX4's 400 messages/s per vehicle that is most of a link's cost. Here:
+- `split(data)` walks a datagram's frames by their headers (MAVLink 2 and 1), as the C
+  library's parser frames them, and says where junk is, without decoding anything.
+- `crc_ok(frame)` checks a frame's CRC (with its message's CRC_EXTRA) in C, so a link can
+  count a frame nobody reads as valid or bad without decoding it.
+- `encode(msg, seq, system_id, component_id)` packs a pymavlink message into the MAVLink 2
+  frame pymavlink would make (byte for byte), with the link's own sequence number.
+
+Signed frames are left to pymavlink and offboard_py.signing: encode() has no signature.
+"""
+
+import struct
+
+from offboard_py.dialect import mavlink
+
+try:
+    from fastcrc import crc16 as _fastcrc16  # what pymavlink itself uses when it is installed
+except ImportError:  # pragma: no cover - pymavlink's pure-Python CRC then
+    _fastcrc16 = None
+
+MAGIC_V2 = mavlink.PROTOCOL_MARKER_V2      # 0xFD
+MAGIC_V1 = mavlink.PROTOCOL_MARKER_V1      # 0xFE
+HEADER_V2 = mavlink.HEADER_LEN_V2          # 10: magic, len, incompat, compat, seq, sys, comp, msgid x3
+HEADER_V1 = mavlink.HEADER_LEN_V1          # 6: magic, len, seq, sys, comp, msgid
+SIGNATURE_LEN = mavlink.MAVLINK_SIGNATURE_BLOCK_LEN  # 13
+IFLAG_SIGNED = mavlink.MAVLINK_IFLAG_SIGNED
+
+_header_v2 = struct.Struct('<BBBBBBBHB')
+_crc_struct = struct.Struct('<H')
+
+# CRC_EXTRA by message id; an id this dialect does not know is checked with 0, as the
+# MAVLink C library (mavros, PX4) does.
+CRC_EXTRA = {msg_id: cls.crc_extra for msg_id, cls in mavlink.mavlink_map.items()}
+MSG_IDS = {cls.msgname: msg_id for msg_id, cls in mavlink.mavlink_map.items()}
+
+
+def crc16(data, crc=0xFFFF):
+    """CRC-16/MCRF4XX (MAVLink's X.25 CRC) of data, continuing from crc."""
+    if _fastcrc16 is not None:
+        return _fastcrc16.mcrf4xx(bytes(data), crc)
+    acc = mavlink.x25crc(b'')
+    acc.crc = crc
+    acc.accumulate(bytes(data))
+    return acc.crc
+
+
+def msg_id(name):
+    """The message id of a message name ('HEARTBEAT' -> 0); KeyError if the dialect lacks it."""
+    return MSG_IDS[name]
+
+
+# -- receive ---------------------------------------------------------------------------------
+
+def split(data):
+    """The frames of one datagram, in order: a list of (msg_id, frame) with frame a bytes slice,
+    or (None, junk) for bytes that are not a whole frame (a bad prefix, a truncated frame, a
+    frame with incompatibility flags we do not know). Nothing is decoded or CRC-checked.
+
+    Junk is skipped up to the next start byte, and a frame is skipped whole, as pymavlink's
+    robust parser and the C library do; a UDP datagram never continues into the next one.
+    """
+    out = []
+    i, n = 0, len(data)
+    while i < n:
+        magic = data[i]
+        if magic == MAGIC_V2:
+            if n - i < HEADER_V2 + 2:
+                out.append((None, data[i:]))
+                break
+            flags = data[i + 2]
+            size = HEADER_V2 + data[i + 1] + 2 + (SIGNATURE_LEN if flags & IFLAG_SIGNED else 0)
+            if i + size > n:
+                out.append((None, data[i:]))
+                break
+            if flags & ~IFLAG_SIGNED:
+                out.append((None, data[i:i + size]))
+            else:
+                out.append((data[i + 7] | data[i + 8] << 8 | data[i + 9] << 16, data[i:i + size]))
+            i += size
+        elif magic == MAGIC_V1:
+            if n - i < HEADER_V1 + 2:
+                out.append((None, data[i:]))
+                break
+            size = HEADER_V1 + data[i + 1] + 2
+            if i + size > n:
+                out.append((None, data[i:]))
+                break
+            out.append((data[i + 5], data[i:i + size]))
+            i += size
+        else:
+            starts = [j for j in (data.find(b'\xfd', i + 1), data.find(b'\xfe', i + 1)) if j >= 0]
+            end = min(starts) if starts else n
+            out.append((None, data[i:end]))
+            i = end
+    return out
+
+
+def crc_ok(msg_id, frame):
+    """True when a frame from split() carries the right CRC for its message id."""
+    header = HEADER_V2 if frame[0] == MAGIC_V2 else HEADER_V1
+    end = header + frame[1]
+    crc = crc16(frame[1:end])
+    crc = crc16(bytes((CRC_EXTRA.get(msg_id, 0),)), crc)
+    return crc == _crc_struct.unpack_from(frame, end)[0]
+
+
+# -- send ------------------------------------------------------------------------------------
+
+def _payload_only(_mav, _crc_extra, payload, force_mavlink1=False):
+    return payload
+
+
+def payload(msg):
+    """The payload of a pymavlink message (untrimmed), as its generated pack() computes it.
+
+    pack() builds the payload and hands it to self._pack(); for the moment of the call the
+    instance's _pack returns the payload instead of building pymavlink's header objects.
+    """
+    msg._pack = _payload_only
+    try:
+        return msg.pack(None)
+    finally:
+        del msg._pack
+
+
+def encode(msg, seq, system_id, component_id):
+    """The unsigned MAVLink 2 frame of msg, byte for byte what pymavlink packs."""
+    body = payload(msg)
+    trimmed = body.rstrip(b'\x00') or body[:1]  # MAVLink 2 drops trailing zeros, keeps one byte
+    cls = type(msg)
+    msg_id = cls.id  # the class's: some messages (RAW_IMU, STATUSTEXT) have a field called id
+    frame = _header_v2.pack(MAGIC_V2, len(trimmed), 0, 0, seq, system_id, component_id,
+                            msg_id & 0xFFFF, msg_id >> 16) + trimmed
+    crc = crc16(bytes((cls.crc_extra,)), crc16(frame[1:]))
+    return frame + _crc_struct.pack(crc)

@@ -1,0 +1,140 @@
+"""The wire layer (offboard_py.wire) and the link's use of it, datagram by datagram.
+
+- encode() must make the frame pymavlink makes, byte for byte, for every message of the
+  dialect, so a client cannot tell the fast path from pymavlink's.
+- Each link numbers its frames 0, 1, ... 255, 0 (PX4 and mavros count per channel; a
+  receiver measures packet loss from the gaps). Before this, every frame said seq 0.
+- split() frames a datagram as the C library's parser does; crc_ok() checks a frame's CRC.
+- A link decodes only the types its handlers read, and still counts and checks the rest.
+"""
+
+import random
+import struct
+
+import pytest
+
+from offboard_py import wire
+from offboard_py.dialect import mavlink
+from offboard_py.mavlink_link import MavlinkLink
+
+INT_RANGES = {'int8_t': (-128, 127), 'uint8_t': (0, 255), 'int16_t': (-32768, 32767), 'uint16_t': (0, 65535),
+              'int32_t': (-2 ** 31, 2 ** 31 - 1), 'uint32_t': (0, 2 ** 32 - 1),
+              'int64_t': (-2 ** 63, 2 ** 63 - 1), 'uint64_t': (0, 2 ** 64 - 1)}
+
+
+def _value(rng, type_name):
+    if type_name in ('float', 'double'):
+        return rng.choice((0.0, 1.5, -3.25, 1e6))
+    low, high = INT_RANGES[type_name]
+    return rng.choice((0, 0, low, high, rng.randint(low, high)))
+
+
+def sample_message(cls, rng):
+    """An instance of a pymavlink message class with random field values (zeros often, so
+    that trailing-zero trimming is exercised)."""
+    args = []
+    for name, type_name in zip(cls.fieldnames, cls.fieldtypes):
+        length = cls.array_lengths[cls.ordered_fieldnames.index(name)]
+        if type_name == 'char':
+            text = ''.join(rng.choice('abcXYZ_') for _ in range(rng.randint(0, max(1, length))))
+            args.append(text.encode()[:max(1, length)])
+        elif length:
+            args.append([_value(rng, type_name) for _ in range(length)])
+        else:
+            args.append(_value(rng, type_name))
+    return cls(*args)
+
+
+@pytest.mark.parametrize('msg_id', sorted(mavlink.mavlink_map))
+def test_encode_is_pymavlinks_frame(msg_id):
+    rng = random.Random(msg_id)
+    cls = mavlink.mavlink_map[msg_id]
+    for seq in (0, 77, 255):
+        msg = sample_message(cls, rng)
+        reference = mavlink.MAVLink(None, srcSystem=42, srcComponent=190)
+        reference.seq = seq
+        assert wire.encode(msg, seq, 42, 190) == msg.pack(reference), cls.msgname
+        # and the message is left as it was: pymavlink can still pack it
+        assert msg.pack(reference) == wire.encode(msg, seq, 42, 190)
+
+
+def test_a_link_numbers_its_frames():
+    link = MavlinkLink(('127.0.0.1', 0), None, system_id=3, component_id=1, learn_remote=False)
+    try:
+        seqs = [link._pack(link.mav.heartbeat_encode(2, 12, 0, 0, 0))[4] for _ in range(300)]
+    finally:
+        link.close()
+    assert seqs[:3] == [0, 1, 2] and seqs[255:258] == [255, 0, 1], 'seq counts per frame and wraps at 256'
+
+
+def frame(msg, seq=0, system_id=1):
+    return wire.encode(msg, seq, system_id, 1)
+
+
+HB = mavlink.MAVLink_heartbeat_message(2, 12, 29, 0x03040000, 3, 3)
+ATT = mavlink.MAVLink_attitude_message(1000, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0)
+
+
+def test_split_frames_junk_and_truncation():
+    v1 = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    v1.WIRE_PROTOCOL_VERSION = '1.0'
+    v1_frame = HB.pack(v1, force_mavlink1=True)
+    data = b'\x00\x01junk' + frame(HB) + v1_frame + frame(ATT) + frame(ATT)[:-3]
+    parts = wire.split(data)
+    assert [p[0] for p in parts] == [None, mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_HEARTBEAT,
+                                     mavlink.MAVLINK_MSG_ID_ATTITUDE, None]
+    assert parts[0][1] == b'\x00\x01junk' and parts[2][1] == v1_frame
+    assert all(wire.crc_ok(i, f) for i, f in parts if i is not None)
+    assert b''.join(f for _, f in parts) == data, 'every byte is accounted for'
+
+
+def test_split_signed_length_and_unknown_flags():
+    signed = bytearray(frame(HB))
+    signed[2] = mavlink.MAVLINK_IFLAG_SIGNED
+    signed += bytes(13)
+    odd = bytearray(frame(HB))
+    odd[2] = 0x02
+    parts = wire.split(bytes(signed) + bytes(odd) + frame(ATT))
+    assert [(p[0], len(p[1])) for p in parts] == [(0, len(signed)), (None, len(odd)),
+                                                  (mavlink.MAVLINK_MSG_ID_ATTITUDE, len(frame(ATT)))]
+
+
+def test_crc_ok_catches_a_flipped_bit_and_uses_crc_extra():
+    good = frame(ATT)
+    assert wire.crc_ok(mavlink.MAVLINK_MSG_ID_ATTITUDE, good)
+    bad = bytearray(good)
+    bad[12] ^= 0x10
+    assert not wire.crc_ok(mavlink.MAVLINK_MSG_ID_ATTITUDE, bytes(bad))
+    assert not wire.crc_ok(mavlink.MAVLINK_MSG_ID_HEARTBEAT, good), 'another id means another CRC_EXTRA'
+
+
+@pytest.fixture
+def link():
+    endpoint = MavlinkLink(('127.0.0.1', 0), None, system_id=255, component_id=1)
+    endpoint.got = []
+    endpoint.on('HEARTBEAT', endpoint.got.append)
+    yield endpoint
+    endpoint.close()
+
+
+def test_link_decodes_only_what_it_reads(link, monkeypatch):
+    decoded = []
+    real_decode = link.mav.decode
+    monkeypatch.setattr(link.mav, 'decode', lambda buf: decoded.append(buf[7]) or real_decode(buf))
+    link.handle_datagram(frame(ATT) + frame(HB, seq=1) + frame(ATT, seq=2), ('127.0.0.1', 14580))
+    assert [m.get_type() for m in link.got] == ['HEARTBEAT'] and link.got[0].get_seq() == 1
+    assert decoded == [mavlink.MAVLINK_MSG_ID_HEARTBEAT], 'ATTITUDE has no reader: framed and checked, not decoded'
+    assert link.stats['received'] == 3 and link.stats['bad_frames'] == 0
+    assert link.remote == ('127.0.0.1', 14580)
+
+
+def test_link_counts_bad_frames_and_junk_moves_nothing(link):
+    bad = bytearray(frame(ATT))
+    bad[-1] ^= 0xFF
+    link.handle_datagram(bytes(bad) + b'\xfd\x09', ('127.0.0.1', 9999))
+    assert link.stats['bad_frames'] == 2 and link.stats['received'] == 0
+    assert link.remote is None, 'a datagram without one valid frame must not move the learned remote'
+    unknown = bytearray(frame(HB))
+    unknown[7:10] = struct.pack('<I', 70000)[:3]  # an id the dialect lacks, CRC now wrong too
+    link.handle_datagram(bytes(unknown), ('127.0.0.1', 9999))
+    assert link.stats['bad_frames'] == 3 and link.remote is None
