@@ -230,6 +230,31 @@ class BridgeTest(OffboardTestCase):
         imu = rospy.wait_for_message('mavros/imu/data', Imu, 5.0)
         self.assertAlmostEqual(imu.linear_acceleration.z, 9.80665, places=1, msg='FLU: gravity reads +z at rest')
 
+    def test_09b_gcs_url_reaches_a_ground_station_on_14550(self):
+        """gcs_url:=udp://@127.0.0.1, as a QGroundControl user writes it: the vehicle's stream
+        reaches a ground station bound on 14550 from the bridge's 14555, and the ground
+        station's command goes through the bridge to the vehicle and its answer comes back."""
+        self.wait_for_connected(self.sim, 15.0)
+        gcs = MavlinkListener(14550, 14555, src_system=255, src_component=190)
+        try:
+            bridge = ('127.0.0.1', 14555)
+            self.wait_until(lambda: bridge in gcs.senders.get('ATTITUDE_QUATERNION', ()), 10.0,
+                            'the FCU stream from the bridge (%s:%d) at the ground station' % bridge)
+            def vehicle_beats():
+                return [m for m in gcs.of_type('HEARTBEAT') if m.type == mavlink.MAV_TYPE_QUADROTOR]
+            self.wait_until(vehicle_beats, 5.0, 'a HEARTBEAT of the vehicle at the ground station')
+            target = vehicle_beats()[0].get_srcSystem()
+            asked = time.monotonic()
+            gcs.send(gcs.mav.command_long_encode(target, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                                 mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0))
+            self.wait_until(lambda: any(a.command == mavlink.MAV_CMD_REQUEST_MESSAGE and a.target_system == 255
+                                        for a in gcs.of_type('COMMAND_ACK', asked)), 5.0,
+                            'the ground station\'s REQUEST_MESSAGE got no COMMAND_ACK through the bridge')
+            self.wait_until(lambda: gcs.of_type('AUTOPILOT_VERSION', asked), 5.0, 'no AUTOPILOT_VERSION came back')
+            self.assertIn(bridge, gcs.senders['COMMAND_ACK'], 'the answer came back through the bridge')
+        finally:
+            gcs.close()
+
     def test_10_disconnected_after_timeout(self):
         self.wait_for_connected(self.silent, 10.0)
         self.fcu.beating = False

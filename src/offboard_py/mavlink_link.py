@@ -40,16 +40,32 @@ class UrlError(ValueError):
     """An fcu_url/gcs_url this link cannot open; the message names the URL."""
 
 
-def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=DEFAULT_REMOTE_PORT):
-    """`udp://[bind_host][:port]@[remote_host][:port]` -> ((bind_host, port), (remote_host, port) or None).
+# mavconn's UDP schemes: (broadcast until a remote talks, broadcast always)
+UDP_SCHEMES = {'udp': (False, False), 'udp-b': (True, False), 'udp-pb': (True, True)}
+BROADCAST_HOST = '255.255.255.255'
 
-    A missing remote host means "learn it from the first packet". Raises UrlError.
+
+class UdpUrl(collections.namedtuple('UdpUrl', 'bind remote broadcast permanent')):
+    """A parsed UDP URL: bind (host, port), remote (host, port) or None (learn it from the first
+    packet), broadcast (send to BROADCAST_HOST), permanent (keep broadcasting: never learn)."""
+
+
+def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=DEFAULT_REMOTE_PORT):
+    """mavconn's UDP URLs -> UdpUrl. Raises UrlError.
+
+    - `udp://[bind_host][:port]@[remote_host][:port]`: a missing remote host means "learn
+      it from the first packet"; missing ports are 14555 (bind) and 14550 (remote).
+    - `udp-b://[bind_host][:port]@[:port]`: broadcast to the remote port until a remote
+      talks, then answer it (mavconn's "udp-b").
+    - `udp-pb://[bind_host][:port]@[:port]`: broadcast always ("permanent broadcast").
     """
     if not isinstance(url, str) or '://' not in url:
         raise UrlError('cannot read URL %r: expected udp://[bind_host][:port]@[remote_host][:port]' % (url,))
     scheme, rest = url.split('://', 1)
-    if scheme != 'udp':
-        raise UrlError('URL %r: scheme %r is not supported (only udp://)' % (url, scheme))
+    if scheme not in UDP_SCHEMES:
+        raise UrlError('URL %r: scheme %r is not supported (only %s)' % (url, scheme, ', '.join(
+            s + '://' for s in UDP_SCHEMES)))
+    broadcast, permanent = UDP_SCHEMES[scheme]
     rest = rest.split('/', 1)[0].split('?', 1)[0]
     bind_part, _, remote_part = rest.partition('@')
 
@@ -63,10 +79,17 @@ def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=
         return host, port if port is not None else default_port
 
     bind = host_port(bind_part, DEFAULT_BIND_HOST, default_bind_port, 'bind')
-    remote = host_port(remote_part, None, default_remote_port, 'remote') if remote_part else (None, None)
+    if broadcast:
+        host, port = host_port(remote_part, None, default_remote_port, 'remote')
+        if host is not None:
+            raise UrlError('URL %r: %s:// sends to the broadcast address; give only a port after @' % (url, scheme))
+        remote = (BROADCAST_HOST, port)
+    else:
+        remote = host_port(remote_part, None, default_remote_port, 'remote') if remote_part else (None, None)
+        remote = remote if remote[0] else None
     if bind[1] == 0:
         raise UrlError('URL %r: bind port 0 is not allowed' % url)
-    return bind, (remote if remote[0] else None)
+    return UdpUrl(bind, remote, broadcast, permanent)
 
 
 class _Sink:
@@ -79,8 +102,11 @@ class _Sink:
 class MavlinkLink:
     """A MAVLink 2 UDP endpoint with handler dispatch and remote learning."""
 
-    def __init__(self, bind, remote=None, system_id=1, component_id=1, learn_remote=True):
+    def __init__(self, bind, remote=None, system_id=1, component_id=1, learn_remote=True, broadcast=False,
+                 name='udp'):
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        if broadcast:
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
         try:
             self.sock.bind(bind)
         except OSError as err:
@@ -90,6 +116,8 @@ class MavlinkLink:
         self.bind = self.sock.getsockname()
         self.remote = self._resolve(remote) if remote else None
         self.learn_remote = learn_remote
+        self.name = name  # for the log, as mavconn names its links (udp0, udp1)
+        self.remote_changes = 0
         self.mav = mavlink.MAVLink(_Sink(), srcSystem=system_id, srcComponent=component_id)
         self._send_lock = threading.Lock()  # pymavlink's sequence counter is not thread-safe
         self.mav.robust_parsing = True
@@ -225,13 +253,22 @@ class MavlinkLink:
         self.last_receive_s = time.monotonic()
         if (sender is not None and self.learn_remote and sender != self.remote
                 and self.signing.may_move_remote(messages)):
-            self.remote = sender  # before dispatch: replies go to whoever asked
+            self._move_remote(sender)  # before dispatch: replies go to whoever asked
         if self.on_datagram is not None:
             self.on_datagram(data)
         self.stats['received'] += len(messages) + undecoded
         for msg in messages:
             for handler in self.handlers.get(msg.get_type(), ()):
                 self._call(handler, msg)
+
+    def _move_remote(self, sender):
+        """Answer `sender` from now on, and say so as mavconn does ("udp0: Remote address: ...");
+        after 10 moves only every 100th is logged (a hostile sender could move it often)."""
+        self.remote = sender
+        self.remote_changes += 1
+        if self.remote_changes <= 10 or self.remote_changes % 100 == 0:
+            log.info('%s: Remote address: %s:%d%s', self.name, sender[0], sender[1],
+                     '' if self.remote_changes <= 10 else ' (%d changes)' % self.remote_changes)
 
     def _call(self, handler, msg):
         try:

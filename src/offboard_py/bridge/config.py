@@ -41,9 +41,9 @@ def read_config(get):
     for name, default, low, high in (('conn/timeout', 10.0, 0.1, 3600.0), ('conn/heartbeat_rate', 1.0, 0.0, 100.0),
                                      ('cmd/command_ack_timeout', 5.0, 0.1, 600.0)):
         cfg[name] = float(_number(name, get(name, default), low, high))
-    for key, name, ports in (('fcu', 'fcu_url', ()), ('gcs', 'gcs_url', (14550, 14551))):
-        try:
-            cfg[key] = parse_udp_url(cfg[name], *ports) if cfg[name] else None
+    for key, name in (('fcu', 'fcu_url'), ('gcs', 'gcs_url')):
+        try:  # mavconn's defaults for both: bind 14555, remote 14550
+            cfg[key] = parse_udp_url(cfg[name]) if cfg[name] else None
         except UrlError as err:
             raise ConfigError('parameter ~%s: %s' % (name, err))
     if cfg['fcu'] is None:

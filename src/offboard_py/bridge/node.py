@@ -49,13 +49,30 @@ class RospyEndpoints:
 
 def open_links(cfg):
     """The FCU link (signed if configured) and the GCS link or None, from the checked parameters."""
-    link = MavlinkLink(cfg['fcu'][0], cfg['fcu'][1], cfg['system_id'], cfg['component_id'])
+    def open_link(url, name):
+        return MavlinkLink(url.bind, url.remote, cfg['system_id'], cfg['component_id'],
+                           learn_remote=not url.permanent, broadcast=url.broadcast, name=name)
+    link = open_link(cfg['fcu'], 'udp0')
     if cfg['signing']:
         link.enable_signing(*cfg['signing'], required=cfg['signing/required'])
-    gcs = None
-    if cfg['gcs']:
-        gcs = MavlinkLink(cfg['gcs'][0], cfg['gcs'][1], cfg['system_id'], cfg['component_id'])
+    gcs = open_link(cfg['gcs'], 'udp1') if cfg['gcs'] else None
     return link, gcs
+
+
+def log_links(cfg, link, gcs):
+    """What mavros says about its links at start."""
+    rospy.loginfo('FCU URL: %s', cfg['fcu_url'])
+    for mav_link in (link, gcs):
+        if mav_link is None:
+            rospy.loginfo('GCS bridge disabled')
+            continue
+        if mav_link is gcs:
+            rospy.loginfo('GCS URL: %s', cfg['gcs_url'])
+        rospy.loginfo('%s: Bind address: %s:%d', mav_link.name, *mav_link.bind)
+        if mav_link.remote:
+            rospy.loginfo('%s: Remote address: %s:%d', mav_link.name, *mav_link.remote)
+        else:
+            rospy.loginfo('%s: Remote address: learned from the first packet', mav_link.name)
 
 
 class _ToRosout(logging.Handler):
@@ -87,8 +104,7 @@ def main():
     except (ConfigError, UrlError, OSError) as err:
         rospy.logfatal('mavros bridge: %s', err)
         return 2
-    rospy.loginfo('FCU: %s (bound to %s:%d, %s)', cfg['fcu_url'], link.bind[0], link.bind[1],
-                  'sending to %s:%d' % link.remote if link.remote else 'waiting for the FCU to talk')
+    log_links(cfg, link, gcs)
     if cfg['signing']:
         rospy.loginfo('MAVLink signing on (key %s): unsigned input is %s', cfg['signing/key_file'],
                       'rejected' if cfg['signing/required'] else 'accepted')

@@ -22,6 +22,7 @@ class MavlinkListener:
         self.mav = mavlink.MAVLink(None, srcSystem=src_system, srcComponent=src_component)
         self.lock = threading.Lock()
         self.received = []
+        self.senders = {}  # message type -> the set of (host, port) it came from
         self.running = True
         self._rx = threading.Thread(target=self._receive, daemon=True)
         self._rx.start()
@@ -31,7 +32,7 @@ class MavlinkListener:
         parser.robust_parsing = True
         while self.running:
             try:
-                data, _ = self.sock.recvfrom(4096)
+                data, sender = self.sock.recvfrom(4096)
             except socket.timeout:
                 continue
             now = time.monotonic()
@@ -39,6 +40,7 @@ class MavlinkListener:
                 if msg.get_type() != 'BAD_DATA':
                     with self.lock:
                         self.received.append((now, msg))
+                        self.senders.setdefault(msg.get_type(), set()).add(sender)
 
     def send(self, msg):
         self.sock.sendto(msg.pack(self.mav), self.remote)
