@@ -8,7 +8,7 @@ import time
 import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped, Quaternion
-from mavros_msgs.msg import HomePosition, PositionTarget, Waypoint, WaypointList
+from mavros_msgs.msg import Altitude, HomePosition, PositionTarget, Waypoint, WaypointList
 from mavros_msgs.srv import ParamGet, ParamPull, ParamSet, ParamSetRequest, WaypointClear, WaypointPush
 from sensor_msgs.msg import Imu, NavSatFix
 
@@ -254,6 +254,31 @@ class BridgeTest(OffboardTestCase):
             self.assertIn(bridge, gcs.senders['COMMAND_ACK'], 'the answer came back through the bridge')
         finally:
             gcs.close()
+
+    def test_09c_fcu_stamped_topics_are_on_ros_time(self):
+        """After the timesync filter converged (20 samples here), pose, imu, global and altitude are
+        stamped FCU time + offset: within 20 ms of ROS time at arrival, never in the future."""
+        self.wait_for_connected(self.sim, 15.0)
+        got = {}
+
+        def record(topic):
+            return lambda msg: got.setdefault(topic, []).append((rospy.Time.now(), msg.header.stamp))
+        subs = [rospy.Subscriber('mavros/' + topic, cls, record(topic)) for topic, cls in (
+            ('local_position/pose', PoseStamped), ('imu/data', Imu), ('global_position/global', NavSatFix),
+            ('altitude', Altitude))]
+        try:
+            time.sleep(5.0)  # 3 s from connection at least: the filter has its 20 samples
+            got.clear()
+            self.wait_until(lambda: len(got) == 4 and all(len(v) >= 20 for v in got.values()), 10.0,
+                            '20 messages on each FCU-stamped topic')
+        finally:
+            for sub in subs:
+                sub.unregister()
+        for topic, pairs in got.items():
+            lags = [(arrival - stamp).to_sec() * 1000.0 for arrival, stamp in pairs]
+            self.assertTrue(all(-1.0 <= lag <= 20.0 for lag in lags),
+                            '%s: arrival minus header stamp (ms) outside [-1, 20]: %s' % (
+                                topic, ['%.1f' % lag for lag in lags if not -1.0 <= lag <= 20.0]))
 
     def test_10_disconnected_after_timeout(self):
         self.wait_for_connected(self.silent, 10.0)

@@ -35,6 +35,10 @@ def test_signing_key_file_is_read(tmp_path):
     ({'conn__timeout': -1.0}, '~conn/timeout'),
     ({'signing__key_file': '/nonexistent/key.bin'}, '~signing/key_file'),
     ({'signing__required': 'yes'}, '~signing/required'),
+    ({'time__timesync_mode': 'ONBOARD'}, '~time/timesync_mode'),
+    ({'conn__timesync_rate': -1.0}, '~conn/timesync_rate'),
+    ({'time__convergence_window': 0}, '~time/convergence_window'),
+    ({'time__timesync_alpha_final': 2.0}, '~time/timesync_alpha_final'),
 ])
 def test_bad_parameters_are_named(params, words):
     with pytest.raises(ConfigError) as err:

@@ -175,7 +175,7 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
     assert set(topics) == {
         '~state', '~extended_state', '~local_position/pose', '~local_position/velocity_local',
         '~global_position/global', '~altitude', '~imu/data', '~home_position/home', '~mission/waypoints',
-        '~mission/reached'}
+        '~mission/reached', '~time_reference'}
     assert {name for name, pub in topics.items() if pub.latch} == {'~state', '~home_position/home',
                                                                    '~mission/waypoints'}
     assert {name: pub.queue_size for name, pub in topics.items() if pub.queue_size != 10} == {

@@ -14,7 +14,7 @@ class Altitude:
         if not self.pub.get_num_connections():
             return
         msg = AltitudeMsg()
-        msg.header.stamp, msg.header.frame_id = self.bridge.now(), self.frame_id
+        msg.header.stamp, msg.header.frame_id = self.bridge.fcu_stamp_us(alt.time_usec), self.frame_id
         msg.monotonic, msg.amsl, msg.local = alt.altitude_monotonic, alt.altitude_amsl, alt.altitude_local
         msg.relative, msg.terrain = alt.altitude_relative, alt.altitude_terrain
         msg.bottom_clearance = alt.bottom_clearance

@@ -41,6 +41,7 @@ def read_config(get):
     for name, default, low, high in (('conn/timeout', 10.0, 0.1, 3600.0), ('conn/heartbeat_rate', 1.0, 0.0, 100.0),
                                      ('cmd/command_ack_timeout', 5.0, 0.1, 600.0)):
         cfg[name] = float(_number(name, get(name, default), low, high))
+    read_time_config(get, cfg)
     for key, name in (('fcu', 'fcu_url'), ('gcs', 'gcs_url')):
         try:  # mavconn's defaults for both: bind 14555, remote 14550
             cfg[key] = parse_udp_url(cfg[name]) if cfg[name] else None
@@ -59,3 +60,35 @@ def read_config(get):
         except SigningKeyError as err:
             raise ConfigError('parameter ~signing/key_file: %s' % err)
     return cfg
+
+
+# mavros sys_time's parameters and defaults; the filter's go to cfg['time/filter'] as keyword arguments
+TIME_FILTER_PARAMS = (('time/timesync_alpha_initial', 'alpha_initial', 0.05), ('time/timesync_beta_initial', 'beta_initial', 0.05),
+                      ('time/timesync_alpha_final', 'alpha_final', 0.003), ('time/timesync_beta_final', 'beta_final', 0.003))
+TIME_LIMIT_PARAMS = (('time/convergence_window', 'convergence_window', 500),
+                     ('time/max_rtt_sample', 'max_rtt_ms', 10), ('time/max_deviation_sample', 'max_deviation_ms', 100),
+                     ('time/max_consecutive_high_rtt', 'max_high_rtt', 5),
+                     ('time/max_consecutive_high_deviation', 'max_high_deviation', 5))
+
+
+def read_time_config(get, cfg):
+    from offboard_py.bridge.sys_time import MODES
+    mode = get('time/timesync_mode', 'MAVLINK')
+    if mode not in MODES:
+        raise ConfigError('parameter ~time/timesync_mode: %r is not one of %s (ONBOARD is not supported)'
+                          % (mode, ', '.join(MODES)))
+    cfg['time/timesync_mode'] = mode
+    source = get('time/time_ref_source', 'fcu')
+    if not isinstance(source, str):
+        raise ConfigError('parameter ~time/time_ref_source: expected a string, got %r' % (source,))
+    cfg['time/time_ref_source'] = source
+    cfg['conn/timesync_rate'] = float(_number('conn/timesync_rate', get('conn/timesync_rate', 10.0), 0.0, 100.0))
+    filter_args = {}
+    for name, arg, default in TIME_FILTER_PARAMS:
+        filter_args[arg] = float(_number(name, get(name, default), 0.0, 1.0))
+    for name, arg, default in TIME_LIMIT_PARAMS:
+        value = get(name, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError('parameter ~%s: expected a whole number, got %r' % (name, value))
+        filter_args[arg] = int(_number(name, value, 1, 1000000))
+    cfg['time/filter'] = filter_args

@@ -5,6 +5,7 @@ A plugin is a class built with the Bridge and using only this interface:
   builds messages), `target_system`, `target_component`, `attitude` (the shared cache);
 - ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
   to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
+  `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
 - time and connection: `monotonic_s()`, `every`, `after_connect`, `on_connection`, `connected`.
 One thread receives MAVLink and runs the handlers and the periodic work (`start()`); service
 calls run in other threads and wait on events that thread sets. This module opens no
@@ -40,6 +41,7 @@ class Bridge:
         self.connected = False
         self._connection_listeners = []
         self.attitude = Attitude()
+        self.clock_offset = None  # the sys_time plugin, when loaded: stamp_ns(fcu_ns)
         # registered before any plugin's handler, so readers see this message's attitude
         self.on('ATTITUDE_QUATERNION', self.attitude.update)
         self.plugins = [plugin(self) for plugin in plugins]
@@ -76,6 +78,24 @@ class Bridge:
 
     def is_shutdown(self):
         return self._ros.is_shutdown()
+
+    def now_ns(self):
+        return self.now().to_nsec()
+
+    @staticmethod
+    def time_from_ns(ns):
+        return rospy.Time(ns // 1000000000, ns % 1000000000)
+
+    def fcu_stamp_ms(self, time_boot_ms):
+        """The header stamp of data the FCU timed in ms since its boot (mavros's synchronise_stamp)."""
+        return self._fcu_stamp(time_boot_ms * 1000000)
+
+    def fcu_stamp_us(self, time_usec):
+        return self._fcu_stamp(time_usec * 1000)
+
+    def _fcu_stamp(self, fcu_ns):
+        ns = self.clock_offset.stamp_ns(fcu_ns) if self.clock_offset else None
+        return self.now() if ns is None else self.time_from_ns(ns)
 
     # -- time and connection ------------------------------------------------------------------
 

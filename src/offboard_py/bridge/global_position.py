@@ -18,7 +18,7 @@ class GlobalPosition:
         if not self.pub.get_num_connections():
             return  # nobody listens: skip the work (the topic is not latched)
         fix = NavSatFix()
-        fix.header.stamp, fix.header.frame_id = self.bridge.now(), self.frame_id
+        fix.header.stamp, fix.header.frame_id = self.bridge.fcu_stamp_ms(gp.time_boot_ms), self.frame_id
         fix.status.status, fix.status.service = NavSatStatus.STATUS_FIX, NavSatStatus.SERVICE_GPS
         fix.latitude, fix.longitude, fix.altitude = gp.lat * 1e-7, gp.lon * 1e-7, gp.alt * 1e-3
         fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN

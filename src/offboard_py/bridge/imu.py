@@ -20,13 +20,13 @@ class Imu:
     def _on_highres_imu(self, imu):
         self.accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
 
-    def _on_attitude(self, _att):
+    def _on_attitude(self, att):
         # the bridge's cache has already taken this message (its handler runs before any plugin's)
         if not self.pub.get_num_connections():
             return
         attitude = self.bridge.attitude
         msg = ImuMsg()
-        msg.header.stamp, msg.header.frame_id = self.bridge.now(), 'base_link'
+        msg.header.stamp, msg.header.frame_id = self.bridge.fcu_stamp_ms(att.time_boot_ms), 'base_link'
         q = msg.orientation
         q.x, q.y, q.z, q.w = attitude.orientation_enu
         w = msg.angular_velocity

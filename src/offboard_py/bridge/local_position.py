@@ -20,7 +20,7 @@ class LocalPosition:
 
     def _on_local_position(self, pos):
         # non-latched topics: build nothing for a topic nobody listens to
-        stamp = self.bridge.now()
+        stamp = self.bridge.fcu_stamp_ms(pos.time_boot_ms)
         attitude = self.bridge.attitude
         if self.pose_pub.get_num_connections():
             pose = PoseStamped()

@@ -1,0 +1,138 @@
+"""mavros sys_time: TIMESYNC with the FCU, its clock offset, and ~time_reference.
+
+As mavros's sys_time plugin does it (timesync mode MAVLINK, the default):
+- every 1/conn/timesync_rate s the bridge asks: TIMESYNC(tc1=0, ts1=ROS time in ns);
+- it answers the FCU's own requests (PX4 sends 10 a second): TIMESYNC(tc1=ROS time, ts1=theirs);
+- each answer to one of ours is an observation of the offset (ROS time minus FCU time,
+  assuming the round trip is symmetric). Samples with a round trip over time/max_rtt_sample
+  are not used; a double exponential filter (alpha for the offset, beta for its drift)
+  smooths the rest, its gains moving from *_initial to *_final over time/convergence_window
+  samples. Once converged, a run of samples far from the estimate (a clock jump on the FCU)
+  resets it.
+- FCU-stamped topics are stamped FCU time + offset once the filter has converged; before
+  that (and with mode NONE) they are stamped with ROS time now, as mavros's
+  synchronise_stamp(). PASSTHROUGH stamps with the FCU's time as it is.
+- SYSTEM_TIME with a plausible Unix time is published on ~time_reference
+  (sensor_msgs/TimeReference, source time/time_ref_source).
+"""
+
+import logging
+import math
+
+from sensor_msgs.msg import TimeReference
+
+log = logging.getLogger(__name__)
+
+MODES = ('MAVLINK', 'NONE', 'PASSTHROUGH')
+# mavros: a Unix time before this (2009-02-13) is not a real clock
+UNIX_VALID_AFTER_US = 1234567890 * 1000000
+
+
+class TimesyncFilter:
+    """mavros's offset filter, without ROS: feed observe(), read offset_ns."""
+
+    def __init__(self, alpha_initial=0.05, beta_initial=0.05, alpha_final=0.003, beta_final=0.003,
+                 convergence_window=500, max_rtt_ms=10.0, max_deviation_ms=100.0, max_high_rtt=5,
+                 max_high_deviation=5):
+        self.alpha_initial, self.beta_initial = alpha_initial, beta_initial
+        self.alpha_final, self.beta_final = alpha_final, beta_final
+        self.convergence_window = convergence_window
+        self.max_rtt_ns, self.max_deviation_ns = max_rtt_ms * 1e6, max_deviation_ms * 1e6
+        self.max_high_rtt, self.max_high_deviation = max_high_rtt, max_high_deviation
+        self.reset()
+
+    def reset(self):
+        self.sequence = 0
+        self.estimate_ns = 0.0
+        self.skew_ns = 0.0
+        self.high_rtt = self.high_deviation = 0
+
+    @property
+    def converged(self):
+        return self.sequence >= self.convergence_window
+
+    @property
+    def offset_ns(self):
+        """The offset to apply (ROS time = FCU time + offset): 0 until the filter has converged."""
+        return int(self.estimate_ns) if self.converged else 0
+
+    def observe(self, offset_ns, rtt_ns):
+        """One TIMESYNC round trip. Returns a warning to log, or None."""
+        if not 0 <= rtt_ns < self.max_rtt_ns:  # negative: not an answer to one of ours
+            self.high_rtt += 1
+            if self.high_rtt > self.max_high_rtt:
+                self.high_rtt = 0
+                return 'TM : RTT too high for timesync: %.2f ms.' % (rtt_ns / 1e6)
+            return None
+        if self.converged and abs(self.estimate_ns - offset_ns) > self.max_deviation_ns:
+            self.high_deviation += 1
+            if self.high_deviation > self.max_high_deviation:
+                self.reset()
+                return 'TM : Time jump detected. Resetting time synchroniser.'
+            return None
+        if self.converged:
+            alpha, beta = self.alpha_final, self.beta_final
+        else:  # gain scheduling: a sigmoid from the initial to the final gains
+            progress = self.sequence / self.convergence_window
+            p = 1.0 - math.exp(0.5 * (1.0 - 1.0 / (1.0 - progress)))
+            alpha = p * self.alpha_final + (1.0 - p) * self.alpha_initial
+            beta = p * self.beta_final + (1.0 - p) * self.beta_initial
+        if self.sequence == 0:
+            self.estimate_ns = float(offset_ns)
+        else:
+            previous = self.estimate_ns
+            self.estimate_ns = alpha * offset_ns + (1.0 - alpha) * (self.estimate_ns + self.skew_ns)
+            self.skew_ns = beta * (self.estimate_ns - previous) + (1.0 - beta) * self.skew_ns
+        self.sequence += 1
+        self.high_deviation = self.high_rtt = 0
+        return None
+
+
+class SysTime:
+    def __init__(self, bridge):
+        self.bridge = bridge
+        cfg = bridge.cfg
+        self.mode = cfg['time/timesync_mode']
+        self.source = cfg['time/time_ref_source']
+        self.filter = TimesyncFilter(**cfg['time/filter'])
+        bridge.clock_offset = self  # what Bridge.fcu_stamp_* read
+        self.time_ref_pub = bridge.publisher('~time_reference', TimeReference)
+        bridge.on('SYSTEM_TIME', self._on_system_time)
+        bridge.on('TIMESYNC', self._on_timesync)
+        rate = cfg['conn/timesync_rate']
+        if self.mode == 'MAVLINK' and rate > 0.0:
+            bridge.every(1.0 / rate, self._request)
+
+    # -- the offset -----------------------------------------------------------------------
+
+    def stamp_ns(self, fcu_ns):
+        """ROS time (ns) of an FCU time (ns since its boot), or None for "stamp with now"."""
+        if self.mode == 'PASSTHROUGH':
+            return fcu_ns
+        offset = self.filter.offset_ns if self.mode == 'MAVLINK' else 0
+        return fcu_ns + offset if offset > 0 else None
+
+    # -- TIMESYNC -------------------------------------------------------------------------
+
+    def _request(self, _now_s):
+        if self.bridge.connected:
+            self.bridge.send(self.bridge.mav.timesync_encode(0, self.bridge.now_ns()))
+
+    def _on_timesync(self, msg):
+        now_ns = self.bridge.now_ns()
+        if msg.tc1 == 0:  # the FCU asks: answer with our clock, whatever our own mode
+            self.bridge.send(self.bridge.mav.timesync_encode(now_ns, msg.ts1))
+        elif msg.tc1 > 0 and self.mode == 'MAVLINK':
+            offset = (msg.ts1 + now_ns - 2 * msg.tc1) // 2
+            warning = self.filter.observe(offset, now_ns - msg.ts1)
+            if warning:
+                log.warning('%s', warning)
+
+    def _on_system_time(self, msg):
+        if msg.time_unix_usec <= UNIX_VALID_AFTER_US or not self.time_ref_pub.get_num_connections():
+            return
+        ref = TimeReference()
+        ref.header.stamp = self.bridge.now()
+        ref.time_ref = self.bridge.time_from_ns(msg.time_unix_usec * 1000)
+        ref.source = self.source
+        self.time_ref_pub.publish(ref)

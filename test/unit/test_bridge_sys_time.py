@@ -1,0 +1,112 @@
+"""The bridge's sys_time plugin: TIMESYNC both ways, mavros's offset filter, FCU-stamped topics.
+
+Offline, on the fake FCU link of test_bridge_plugins. Rules from mavros's sys_time: answer the
+FCU's requests with ROS time; observe the offset from answers to ours (round trip under
+time/max_rtt_sample); stamp FCU-timed data with FCU time + offset once the filter has
+converged (time/convergence_window samples), with ROS time now before that.
+"""
+
+import random
+
+import rospy
+
+from offboard_py.bridge import local_position, sys_time
+from offboard_py.bridge.sys_time import TimesyncFilter
+from offboard_py.dialect import mavlink
+from test_bridge_plugins import BUILD, Rig
+
+MS = 1000000
+
+
+def test_filter_converges_to_the_offset_through_jitter():
+    f = TimesyncFilter(convergence_window=500)
+    rng = random.Random(1)
+    true_offset = 1795441000 * 10 ** 9 - 50 * 10 ** 9
+    for i in range(499):
+        assert f.observe(true_offset + rng.randint(-2 * MS, 2 * MS), rng.randint(0, 3 * MS)) is None
+        assert f.offset_ns == 0, 'no offset is used before the filter has converged'
+    f.observe(true_offset, MS)
+    assert f.converged and abs(f.offset_ns - true_offset) < 1 * MS
+
+
+def test_filter_skips_slow_or_foreign_round_trips_and_warns_after_six():
+    f = TimesyncFilter()
+    warnings = [f.observe(5 * MS, 11 * MS) for _ in range(6)]
+    assert warnings[:5] == [None] * 5 and 'RTT too high for timesync: 11.00 ms' in warnings[5]
+    f.observe(5 * MS, -1)
+    assert f.sequence == 0, 'a negative round trip (an answer to someone else) is not a sample'
+
+
+def test_filter_resets_after_a_clock_jump():
+    f = TimesyncFilter(convergence_window=10)
+    for _ in range(10):
+        f.observe(100 * MS, MS)
+    assert f.converged
+    results = [f.observe(100 * MS + 10 ** 9, MS) for _ in range(6)]
+    assert results[:5] == [None] * 5 and 'Time jump detected' in results[5]
+    assert not f.converged and f.offset_ns == 0
+
+
+class TickingRos:
+    """ROS time that the test moves (ns)."""
+
+    def __init__(self, ros, now_ns):
+        self.ros, self.now_ns = ros, now_ns
+
+    def __getattr__(self, name):
+        return getattr(self.ros, name)
+
+    def now(self):
+        return rospy.Time(self.now_ns // 10 ** 9, self.now_ns % 10 ** 9)
+
+
+def rig(**params):
+    r = Rig(sys_time.SysTime, local_position.LocalPosition, **params)
+    r.ros_time = TickingRos(r.ros, 1000 * 10 ** 9)
+    r.bridge._ros = r.ros_time
+    r.bridge.connected = True
+    return r
+
+
+def test_fcu_requests_are_answered_with_ros_time():
+    r = rig()
+    r.fcu.send(BUILD.timesync_encode(0, 123456789))
+    answer = r.fcu.got('TIMESYNC')[-1]
+    assert (answer.tc1, answer.ts1) == (1000 * 10 ** 9, 123456789)
+
+
+def test_fcu_stamped_pose_uses_the_offset_once_converged():
+    r = rig(time__convergence_window=5)
+    fcu_boot_ns = 50 * 10 ** 9  # the FCU booted 950 s before ROS time 1000 s
+    r.fcu.answers['TIMESYNC'] = lambda m: [BUILD.timesync_encode(fcu_boot_ns, m.ts1)] if m.tc1 == 0 else []
+
+    def pose_stamp(time_boot_ms):
+        r.fcu.send(BUILD.local_position_ned_encode(time_boot_ms, 1.0, 2.0, -3.0, 0, 0, 0))
+        return r.published('~local_position/pose')[-1].header.stamp
+
+    assert pose_stamp(50100) == rospy.Time(1000), 'not converged: stamped with ROS time now'
+    for i in range(5):
+        r.bridge.run_periodic(r.clock.now_s + i)  # the 10 Hz request, answered at once
+    assert len(r.fcu.got('TIMESYNC')) == 5 and r.plugin.filter.converged
+    assert pose_stamp(50100) == rospy.Time(1000, 100 * MS), 'FCU time 50.1 s + offset 950 s'
+
+
+def test_modes_none_and_passthrough():
+    r = rig(time__timesync_mode='NONE')
+    r.bridge.run_periodic(r.clock.now_s + 1)
+    assert r.fcu.got('TIMESYNC') == [], 'NONE sends no requests'
+    r.fcu.send(BUILD.local_position_ned_encode(50100, 0, 0, 0, 0, 0, 0))
+    assert r.published('~local_position/pose')[-1].header.stamp == rospy.Time(1000)
+    r = rig(time__timesync_mode='PASSTHROUGH')
+    r.fcu.send(BUILD.local_position_ned_encode(50100, 0, 0, 0, 0, 0, 0))
+    assert r.published('~local_position/pose')[-1].header.stamp == rospy.Time(50, 100 * MS)
+
+
+def test_time_reference_from_system_time():
+    r = rig()
+    r.fcu.send(BUILD.system_time_encode(1795441000123456, 5000))
+    ref = r.published('~time_reference')[-1]
+    assert ref.time_ref == rospy.Time(1795441000, 123456000) and ref.source == 'fcu'
+    assert ref.header.stamp == rospy.Time(1000)
+    r.fcu.send(BUILD.system_time_encode(0, 6000))
+    assert len(r.published('~time_reference')) == 1, 'no Unix time yet: nothing published'
