@@ -64,6 +64,22 @@ class BridgeTest(OffboardTestCase):
         self.wait_until(lambda: self.sim.state.system_status == mavlink.MAV_STATE_STANDBY, 10.0,
                         'system_status STANDBY once the checks pass', [self.sim])
 
+    def test_01b_param_set_right_after_connection(self):
+        """As PX4's posctl integration test: set COM_RCL_EXCEPT as soon as the topics are up,
+        before the bridge's own pull 10 s after connecting. mavros answers false there."""
+        self.wait_for_connected(self.sim, 15.0)
+        first = next(t for t, s in self.sim.states if s.connected)
+        rospy.wait_for_service('mavros/param/set', 5.0)
+        req = ParamSetRequest(param_id='COM_RCL_EXCEPT')
+        req.value.integer = 4
+        res = rospy.ServiceProxy('mavros/param/set', ParamSet)(req)
+        done = time.monotonic()
+        self.assertLess(done - first, 10.0, 'this test must run before the pull; it ran %.1f s after connecting'
+                        % (done - first))
+        self.assertTrue(res.success and res.value.integer == 4, 'set before the pull: %s' % res)
+        got = rospy.ServiceProxy('mavros/param/get', ParamGet)(param_id='MPC_XY_VEL_MAX')
+        self.assertTrue(got.success and got.value.real == 12.0, 'get before the pull: %s' % got)
+
     def test_02_mode_strings_for_px4_modes(self):
         self.wait_for_connected(self.sim, 15.0)
         for mode in PX4_MODES:

@@ -469,6 +469,75 @@ def test_param_set_sends_an_integer_bytewise_and_waits_for_the_echo():
     assert struct.pack('<f', sent.param_value) == struct.pack('<i', 7)
 
 
+def answer_read(m):
+    """The FCU's answer to PARAM_REQUEST_READ: by index, or by name (index -1); nothing if unknown."""
+    names = [name for name, _kind, _value in PARAMS]
+    index = m.param_index if m.param_index >= 0 else (names.index(m.param_id) if m.param_id in names else None)
+    return [] if index is None else [param_value(index)]
+
+
+def test_param_get_and_set_before_the_pull_read_from_the_fcu(monkeypatch):
+    """PX4's posctl test sets COM_RCL_EXCEPT right after start: before the 10 s pull, the bridge
+    reads that parameter by name instead of answering false as mavros does."""
+    monkeypatch.setattr(param, 'READ_TIMEOUT_S', 0.05)
+    rig = Rig(param.Param)
+    rig.bridge.connected = True
+    rig.fcu.answers['PARAM_REQUEST_READ'] = answer_read
+    rig.fcu.answers['PARAM_SET'] = lambda m: [BUILD.param_value_encode(m.param_id.encode(), m.param_value,
+                                                                             m.param_type, len(PARAMS), 2)]
+    got = rig.call('~param/get', ParamGetRequest(param_id='MPC_XY_VEL_MAX'))
+    assert got.success and got.value.real == 12.0
+    [read] = rig.fcu.got('PARAM_REQUEST_READ')
+    assert (read.param_id, read.param_index) == ('MPC_XY_VEL_MAX', -1) and rig.fcu.got('PARAM_REQUEST_LIST') == []
+    request = ParamSetRequest(param_id='COM_RCL_EXCEPT')
+    request.value.integer = 4
+    response = rig.call('~param/set', request)
+    assert response.success and response.value.integer == 4
+    [sent] = rig.fcu.got('PARAM_SET')
+    assert sent.param_type == mavlink.MAV_PARAM_TYPE_INT32, 'the type came from the FCU\'s answer'
+
+
+def test_param_unknown_to_the_fcu_too_is_false_after_the_retries(monkeypatch):
+    monkeypatch.setattr(param, 'READ_TIMEOUT_S', 0.05)
+    rig = Rig(param.Param)
+    rig.bridge.connected = True
+    rig.fcu.answers['PARAM_REQUEST_READ'] = answer_read
+    assert not rig.call('~param/get', ParamGetRequest(param_id='NO_SUCH_PARAM')).success
+    assert len(rig.fcu.got('PARAM_REQUEST_READ')) == param.READ_RETRIES
+    request = ParamSetRequest(param_id='NO_SUCH_PARAM')
+    request.value.real = 1.0
+    assert not rig.call('~param/set', request).success and rig.fcu.got('PARAM_SET') == []
+    too_long = ParamGetRequest(param_id='A' * 17)
+    assert not rig.call('~param/get', too_long).success
+    assert len(rig.fcu.got('PARAM_REQUEST_READ')) == 2 * param.READ_RETRIES, 'a bad id is not sent'
+
+
+def test_param_get_during_a_pull_waits_for_it(monkeypatch):
+    monkeypatch.setattr(param, 'QUIET_S', 0.05)
+    rig = Rig(param.Param)
+    rig.bridge.connected = True
+    release = threading.Event()
+
+    def slow_list(_m):
+        release.wait(2.0)
+        return [param_value(i) for i in range(len(PARAMS))]
+    rig.fcu.answers['PARAM_REQUEST_LIST'] = slow_list
+    puller = threading.Thread(target=rig.call, args=('~param/pull', ParamPullRequest()))
+    puller.start()
+    assert wait_until(lambda: rig.plugin.pull_lock.locked(), 1.0)
+    answer = []
+    getter = threading.Thread(target=lambda: answer.append(rig.call('~param/get', ParamGetRequest(
+        param_id='NAV_DLL_ACT'))))
+    getter.start()
+    time.sleep(0.1)
+    assert not answer, 'the get waits while the pull is under way'
+    release.set()
+    puller.join(3.0)
+    getter.join(3.0)
+    assert answer[0].success and answer[0].value.integer == -1
+    assert rig.fcu.got('PARAM_REQUEST_READ') == [], 'the pull brought it: no extra read'
+
+
 # -- attitude, imu, local_position ---------------------------------------------------------------
 
 def test_attitude_is_converted_once_and_shared_by_imu_and_local_position(monkeypatch):

@@ -1,10 +1,16 @@
 """mavros param: ~param/pull, ~param/get, ~param/set.
 
 The list is pulled from the FCU (PARAM_REQUEST_LIST; missing indices re-read one by
-one) shortly after the connection, as mavros does, and on ~param/pull. ~param/get answers
-from that list (unknown id: success=false). ~param/set sends PARAM_SET, with PX4's
-bytewise INT32 encoding (offboard_py.param_codec), and waits for the PARAM_VALUE echo: success when the FCU
+one) 10 s after the connection, as mavros does, and on ~param/pull. ~param/get answers
+from that list. ~param/set sends PARAM_SET, with PX4's bytewise INT32 encoding
+(offboard_py.param_codec), and waits for the PARAM_VALUE echo: success when the FCU
 echoes the value asked for. Integer parameters travel in value.integer, floats in value.real.
+
+Better than mavros, which answers success=false until its pull is done (PX4's own
+posctl test sets COM_RCL_EXCEPT right after start and gives up): a get or set of a
+parameter not pulled yet waits for a pull under way, else reads that one parameter from
+the FCU (PARAM_REQUEST_READ by name). A parameter the FCU does not know either (no
+answer to READ_RETRIES reads) gets success=false and an error naming it.
 """
 
 import collections
@@ -21,6 +27,8 @@ from offboard_py import param_codec
 PULL_AFTER_CONNECT_S = 10.0       # mavros waits for the FCU to boot before pulling
 LIST_TIMEOUT_S = 30.0
 SET_TIMEOUT_S, SET_RETRIES = 1.0, 3
+READ_TIMEOUT_S, READ_RETRIES = 1.0, 3
+PARAM_ID_MAX = 16                 # MAVLink's param_id is char[16]
 QUIET_S = 1.0                     # no PARAM_VALUE for this long: re-read what is missing
 INDEX_UNKNOWN = 0xFFFF            # PARAM_VALUE.param_index when the FCU gives none (MAVLink's -1 as uint16)
 
@@ -94,20 +102,59 @@ class Param:
             msg.real = float(value)
         return msg
 
-    def _get(self, req):
+    def _entry(self, param_id):
+        """(value, type) of a parameter: from the pulled list, else after the pull under way,
+        else read from the FCU now; None when the FCU does not know it (or is not there)."""
         with self.lock:
-            entry = self.values.get(req.param_id)
+            entry = self.values.get(param_id)
+        if entry is not None:
+            return entry
+        if self.pull_lock.locked() and self.pull_lock.acquire(timeout=LIST_TIMEOUT_S):
+            self.pull_lock.release()  # the pull under way is over: it may have brought it
+            with self.lock:
+                entry = self.values.get(param_id)
+            if entry is not None:
+                return entry
+        return self._read(param_id)
+
+    def _read(self, param_id):
+        b = self.bridge
+        if not b.connected or b.is_shutdown():
+            return None
+        for _ in range(READ_RETRIES):
+            with self.lock:
+                before = self.arrivals[param_id]
+            b.send(b.mav.param_request_read_encode(b.target_system, b.target_component, param_id.encode(), -1))
+            deadline = time.monotonic() + READ_TIMEOUT_S
+            with self.lock:
+                while time.monotonic() < deadline:
+                    if self.arrivals[param_id] != before:
+                        return self.values[param_id]
+                    self.lock.wait(0.05)
+        return None
+
+    @staticmethod
+    def _bad_id(param_id):
+        if not param_id or len(param_id) > PARAM_ID_MAX or not param_id.isascii():
+            return 'parameter id %r: 1 to %d ASCII characters' % (param_id, PARAM_ID_MAX)
+        return None
+
+    def _get(self, req):
+        problem = self._bad_id(req.param_id)
+        entry = None if problem else self._entry(req.param_id)
         if entry is None:
-            rospy.logwarn('PR: unknown parameter %s (pulled %d)', req.param_id, len(self.values))
+            rospy.logerr('PR: %s', problem or 'unknown parameter %s: the FCU does not answer for it (%d pulled)'
+                         % (req.param_id, len(self.values)))
             return ParamGetResponse(success=False)
         return ParamGetResponse(success=True, value=self._value_msg(*entry))
 
     def _set(self, req):
         b = self.bridge
-        with self.lock:
-            entry = self.values.get(req.param_id)
+        problem = self._bad_id(req.param_id)
+        entry = None if problem else self._entry(req.param_id)
         if entry is None:
-            rospy.logerr('PR: Unknown parameter to set: %s', req.param_id)
+            rospy.logerr('PR: %s', problem or 'Unknown parameter to set: %s (the FCU does not answer for it)'
+                         % req.param_id)
             return ParamSetResponse(success=False)
         param_type = entry[1]
         wanted = req.value.integer if req.value.integer != 0 else req.value.real
