@@ -33,7 +33,8 @@ def fly_offboard_to_2m(client):
     client.wait_mode('OFFBOARD', 2.0)
     assert client.arm() == ACCEPTED
     client.wait_armed(True, 2.0)
-    client.wait_for(lambda: abs(client.z() + 2.0) < 0.1, 20.0, 'z within 0.1 m of -2 m')
+    # PX4 creeps over the last decimetre (P control, hover wander +-0.1 m): settled is within 0.05 m
+    client.wait_for(lambda: abs(client.z() + 2.0) < 0.05, 20.0, 'z within 0.05 m of -2 m')
 
 
 def test_heartbeat_identity_and_boot_state(start_sim):
@@ -220,10 +221,11 @@ def test_takeoff_and_land_commands(start_sim):
     assert client.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, *NAN4)[0] == ACCEPTED
     client.wait_mode('AUTO.TAKEOFF', 1.0)
     client.wait_mode('AUTO.LOITER', 15.0)
-    assert abs(client.z() + 2.5) < 0.35, 'MIS_TAKEOFF_ALT is 2.5 m, z = %.2f' % client.z()
+    # PX4 completes the takeoff NAV_MC_ALT_RAD (0.8 m) short of MIS_TAKEOFF_ALT and loiters at it
+    client.wait_for(lambda: abs(client.z() + 2.5) < 0.35, 5.0, 'MIS_TAKEOFF_ALT 2.5 m reached in AUTO.LOITER')
     assert client.command(mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, *NAN4)[0] == ACCEPTED
     client.wait_mode('AUTO.LAND', 1.0)
-    client.wait_armed(False, 15.0)
+    client.wait_armed(False, 20.0)  # PX4: 12.8 s to land from 2.2 m, then COM_DISARM_LAND 2 s
     assert client.latest['EXTENDED_SYS_STATE'].landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND
     client.wait_mode('AUTO.LOITER', 2.0)  # back to the user's mode before the landing
     assert client.command(mavlink.MAV_CMD_WAYPOINT_USER_1)[0] == UNSUPPORTED
@@ -347,7 +349,8 @@ def test_four_waypoint_mission_flown_and_landed(start_sim):
                     >= {0, 1, 2, 3, 4}, 60.0, 'items 0..4 reached')
     client.wait_armed(False, 30.0)
     pos = client.latest['LOCAL_POSITION_NED']
-    assert abs(pos.x) < 1.5 and abs(pos.y) < 1.5 and abs(pos.z) < 0.05, 'landed at the last waypoint (home)'
+    # on the ground PX4's local z reads 0.16-0.18 m (px4-sitl-measured.md)
+    assert abs(pos.x) < 1.5 and abs(pos.y) < 1.5 and abs(pos.z) < 0.25, 'landed at the last waypoint (home)'
     reached = [m.seq for _, m in client.history if m.get_type() == 'MISSION_ITEM_REACHED']
     assert reached[:6] == [0, 1, 2, 3, 4, 5][:len(reached[:6])]
 

@@ -6,12 +6,13 @@ vehicle model, then the land detector's word back to the commander. Events from 
 commander and the navigator are routed here at once (arming starts the motors, a mode
 change moves the navigator) and queued in `events` for the autopilot to say on the link.
 `status()` is the read-only picture telemetry is built from, with what the controller tracks
-and the battery.
+and the battery. Positions there are the estimate (vehicle.Estimator: seeded noise and hover
+wander, the ground a little below home's z = 0, as PX4 SITL shows them) unless the flight is ideal.
+Home is set where the vehicle is at arming, as PX4 does.
 
 Pure: time is passed in; no MAVLink I/O, no clock.
 """
 
-import math
 from typing import NamedTuple
 
 from offboard_py import px4_modes
@@ -19,7 +20,7 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim.commander import Commander
 from offboard_py.sim.navigator import Navigator
-from offboard_py.sim.vehicle import GRAVITY, Vehicle
+from offboard_py.sim.vehicle import Estimator, Vehicle
 
 NAN3 = (float('nan'),) * 3
 HOVER_THRUST = 0.5  # normalised thrust that holds the vehicle (PX4's MPC_THR_HOVER default)
@@ -75,6 +76,7 @@ class Status(NamedTuple):
     thrust: float                 # normalised 0..1 (HOVER_THRUST holds the vehicle)
     battery_remaining: float      # 0..1
     battery_voltage: float        # V
+    home: tuple = (0.0, 0.0, 0.0)  # local NED of home, m: where the vehicle was armed (or booted)
 
     @property
     def custom_mode(self):
@@ -90,18 +92,33 @@ class Status(NamedTuple):
 
     @property
     def height(self):
-        return -self.position[2]
+        """Height above home, m (relative altitude)."""
+        return self.home[2] - self.position[2]
 
 
 class Flight:
-    def __init__(self, params, frame, now_s, ready_delay_s=5.0, rc=False):
+    def __init__(self, params, frame, now_s, ready_delay_s=5.0, rc=False, ideal=False, seed=None):
         self.params = params
-        self.vehicle = Vehicle(params)
+        seed = params['MAV_SYS_ID'] if seed is None else seed
+        self.vehicle = Vehicle(params, estimator=Estimator(seed, ideal=ideal))
         self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
         self.navigator = Navigator(params, frame, self.vehicle)
         self.offboard_sp = None
         self.battery = Battery()
         self.events = []
+        self._set_home()
+
+    def set_ideal(self, seed=None):
+        """Before the flight: an ideal vehicle (no noise, no wander, the ground at home's z = 0)."""
+        seed = self.params['MAV_SYS_ID'] if seed is None else seed
+        self.vehicle = Vehicle(self.params, estimator=Estimator(seed, ideal=True))
+        self.navigator.vehicle = self.vehicle
+        self.navigator.on_mode(self.commander.nav_mode)
+        self._set_home()
+
+    def _set_home(self):
+        self.home = tuple(self.vehicle.estimate[0])
+        self.navigator.home = self.home
 
     # -- requests (each returns a MAV_RESULT) --------------------------------------------------
 
@@ -116,7 +133,7 @@ class Flight:
 
     def takeoff(self, altitude_amsl, home_alt, now_s):
         """NAV_TAKEOFF: AUTO.TAKEOFF to the given AMSL altitude, or MIS_TAKEOFF_ALT."""
-        height = self.navigator.takeoff_height(altitude_amsl, home_alt)
+        height = self.navigator.takeoff_height(altitude_amsl, home_alt - self.home[2])
         result = self.request_mode('AUTO.TAKEOFF', now_s)
         if result == mavlink.MAV_RESULT_ACCEPTED:
             self.navigator.set_takeoff_height(height)
@@ -176,6 +193,7 @@ class Flight:
                 n.on_mode(event.mode)
             elif isinstance(event, ev.ArmingChanged):
                 if event.armed:
+                    self._set_home()  # PX4 sets home again at arming
                     self.vehicle.start_motors(now_s)
                     n.on_armed(c.nav_mode)
                 else:
@@ -206,13 +224,15 @@ class Flight:
         sp, acc = v.setpoint, v.acceleration_setpoint
         if sp is None:
             position_sp = velocity_sp = acc_sp = NAN3
-            yaw_sp, yaw_rate_sp, thrust = v.yaw, float('nan'), 0.0
+            yaw_sp, yaw_rate_sp = v.yaw, float('nan')
         else:
             position_sp, velocity_sp, acc_sp = sp.position, v.velocity_setpoint, tuple(acc)
             yaw_sp = sp.yaw if sp.yaw == sp.yaw else v.yaw
             yaw_rate_sp = float('nan') if sp.yaw == sp.yaw else v.yaw_rate
-            thrust = min(1.0, math.sqrt(acc[0] ** 2 + acc[1] ** 2 + (acc[2] - GRAVITY) ** 2) * HOVER_THRUST / GRAVITY)
+        thrust = v.collective_thrust() if c.armed else 0.0
+        position, velocity = v.estimate
         return Status(c.nav_mode, c.user_mode, c.armed, c.failsafe, c.system_status(now_s), c.ready(now_s),
-                      c.prearm_ok(now_s), self.landed_state(), tuple(v.position), tuple(v.velocity), v.yaw,
+                      c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
-                      position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v)
+                      position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
+                      self.home)

@@ -91,6 +91,9 @@ def parser():
     p.add_argument('--ready-delay', type=float, default=5.0,
                    help='seconds after boot before arming is allowed (default 5, as PX4 SITL)')
     p.add_argument('--rc', action='store_true', help='simulate an RC link (sticks centred)')
+    p.add_argument('--ideal', action='store_true',
+                   help='an ideal vehicle: no estimator noise, no hover wander, local z 0 on the ground '
+                        '(default: PX4 SITL\'s, seeded by the system id so runs repeat)')
     p.add_argument('--rate', type=float, default=100.0, help='model and controller rate in Hz (default 100)')
     p.add_argument('--setpoint-log', metavar='DIR',
                    help='at exit, write DIR/setpoints-N.txt: arrival time (ns) and time_boot_ms of each '
@@ -125,6 +128,8 @@ def main(argv=None):
     except OSError as err:
         logging.error('%s', err)
         return 1
+    if args.ideal:
+        sim.flight.set_ideal()
 
     setpoint_log = SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance)) \
         if args.setpoint_log else None

@@ -1,13 +1,17 @@
 """Navigator of the simulated PX4: the setpoints of the AUTO modes, as PX4's navigator makes them.
 
 - AUTO.TAKEOFF: climb above the takeoff point to MIS_TAKEOFF_ALT (or the commanded
-  altitude) at MPC_TKO_SPEED, then report `TakeoffComplete` (the commander loiters).
+  altitude) at MPC_TKO_SPEED; within NAV_MC_ALT_RAD of it report `TakeoffComplete` (the
+  commander loiters, at the takeoff altitude).
 - AUTO.LOITER, and any mode without a setpoint of its own: hold where the mode began.
-- AUTO.RTL: climb to RTL_RETURN_ALT, return home at MPC_XY_CRUISE, land; next to home
-  (RTL_MIN_DIST) it lands at once.
-- AUTO.LAND: descend where the mode began, MPC_Z_VEL_MAX_DN high up and MPC_LAND_SPEED
-  below MPC_LAND_ALT2.
-- AUTO.MISSION: fly the mission items (`MissionRunner`), reporting reached items.
+- AUTO.RTL, PX4's direct return: climb to the return altitude (RTL_RETURN_ALT above home,
+  lower inside the RTL_CONE_ANG cone within RTL_MIN_DIST, never lower than now), return home at
+  MPC_XY_CRUISE, descend to RTL_DESCEND_ALT, land.
+- AUTO.LAND: descend where the mode began at PX4's landing speeds (`land_speed`).
+- AUTO.MISSION: fly the mission items (`MissionRunner`), reporting reached items; waypoints
+  are reached within NAV_ACC_RAD / NAV_MC_ALT_RAD and passed at PX4's corner speed.
+Flights between points follow PX4's jerk-limited trajectory (sim.trajectory).
+Altitudes are relative to `home` (local NED), which the flight stack sets at arming.
 Pure: the vehicle model and the time are passed in; what must be said goes to `events`.
 It neither decides modes (the commander does) nor flies (the vehicle model does).
 """
@@ -17,10 +21,8 @@ import math
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import vehicle as vm
+from offboard_py.sim.trajectory import Trajectory, corner_speed
 
-TAKEOFF_REACHED_M = 0.3
-HOME_REACHED_M = 1.0      # RTL and mission landings: horizontal distance that counts as "there"
-CLIMB_REACHED_M = 0.5     # RTL: within this of the return altitude the return begins
 
 NAV_COMMANDS = frozenset((mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME,
                           mavlink.MAV_CMD_NAV_LOITER_UNLIM, mavlink.MAV_CMD_NAV_LAND,
@@ -32,10 +34,11 @@ def _dist_xy(a, b):
     return math.hypot(a[0] - b[0], a[1] - b[1])
 
 
-def land_setpoint(params, xy, vehicle):
-    """Descend over xy at PX4's landing speeds: MPC_Z_VEL_MAX_DN high up, MPC_LAND_SPEED below ALT2."""
-    height = vehicle.height()
-    fast, slow = params['MPC_Z_VEL_MAX_DN'], params['MPC_LAND_SPEED']
+def land_speed(params, height):
+    """PX4's landing speed at `height` above the ground: MPC_Z_V_AUTO_DN above MPC_LAND_ALT1,
+    blending to MPC_LAND_SPEED at MPC_LAND_ALT2, MPC_LAND_CRWL below MPC_LAND_ALT3 (the
+    rangefinder sees the ground there)."""
+    fast, slow = params['MPC_Z_V_AUTO_DN'], params['MPC_LAND_SPEED']
     alt1, alt2 = params['MPC_LAND_ALT1'], params['MPC_LAND_ALT2']
     if height >= alt1:
         speed = fast
@@ -43,7 +46,63 @@ def land_setpoint(params, xy, vehicle):
         speed = slow
     else:
         speed = slow + (fast - slow) * (height - alt2) / (alt1 - alt2)
+    if height < params['MPC_LAND_ALT3']:
+        speed = min(speed, params['MPC_LAND_CRWL'])
+    return min(speed, fast)
+
+
+def land_setpoint(params, xy, vehicle):
+    """Descend over xy at PX4's landing speeds."""
+    speed = land_speed(params, vehicle.height())
     return vm.setpoint(position=(xy[0], xy[1], vm.NAN), velocity=(vm.NAN, vm.NAN, speed), yaw=vehicle.yaw)
+
+
+def rtl_return_height(params, distance):
+    """PX4's return altitude above home from `distance` (m) away: RTL_RETURN_ALT; inside
+    RTL_MIN_DIST no higher than the RTL_CONE_ANG cone; at least 2 NAV_ACC_RAD outside the
+    acceptance radius, 2 x the distance inside it."""
+    acceptance = params['NAV_ACC_RAD']
+    height = params['RTL_RETURN_ALT']
+    if distance <= acceptance:
+        return 2.0 * distance
+    cone = params['RTL_CONE_ANG']
+    if cone > 0 and distance <= params['RTL_MIN_DIST']:
+        half_angle = math.radians(min(max(cone, 1.0), 89.0))
+        height = min(height, distance / math.tan(half_angle))
+    return max(height, 2.0 * acceptance)
+
+
+class Flyer:
+    """What AUTO modes share: the trajectory towards a target, restarted from the vehicle's own
+    state whenever the flight stops following it (a direct setpoint came in between)."""
+
+    def __init__(self, params):
+        self.params = params
+        self.trajectory = None
+        self._last_s = None
+
+    def direct(self, sp):
+        """A setpoint that does not follow the trajectory."""
+        self.trajectory = None
+        return sp
+
+    def fly_to(self, vehicle, target, now_s, speed_at_target=0.0, xy_speed=None, up_speed=None):
+        dt = 0.0 if self._last_s is None else max(0.0, now_s - self._last_s)
+        self._last_s = now_s
+        if self.trajectory is None:
+            self.trajectory = Trajectory(vehicle.position, vehicle.velocity)
+            dt = 0.0
+        t = self.trajectory
+        t.step(self.params, target, dt, vehicle.position, xy_speed=xy_speed, up_speed=up_speed,
+               speed_at_target=speed_at_target)
+        return vm.setpoint(position=t.position, velocity=t.velocity, acceleration=t.acceleration, yaw=vehicle.yaw)
+
+    def take_off(self, vehicle, target, now_s):
+        """PX4's takeoff: straight at the target while the takeoff ramp limits the climb, then the
+        trajectory at MPC_TKO_SPEED (which brakes early for a low target)."""
+        if vehicle.takeoff_state != 'flight':
+            return self.direct(vm.setpoint(position=target, yaw=vehicle.yaw, z_up_max=self.params['MPC_TKO_SPEED']))
+        return self.fly_to(vehicle, target, now_s, up_speed=self.params['MPC_TKO_SPEED'])
 
 
 class MissionRunner:
@@ -52,6 +111,8 @@ class MissionRunner:
 
     def __init__(self, params, frame):
         self.params, self.frame = params, frame
+        self.flyer = Flyer(params)
+        self.home = (0.0, 0.0, 0.0)
         self.items = []
         self.seq = 0
         self.reached = []        # seq numbers reached since the last take_reached()
@@ -59,10 +120,11 @@ class MissionRunner:
         self._arrived_s = None   # when the current item's position was reached
         self._hold_point = None
         self._takeoff_xy = None
+        self._previous = None    # where the flight to the current item began (for corner speeds)
 
     def load(self, items, seq=0):
         self.items, self.seq, self.finished = list(items), seq, False
-        self._arrived_s = self._hold_point = self._takeoff_xy = None
+        self._arrived_s = self._hold_point = self._takeoff_xy = self._previous = None
 
     def set_current(self, seq):
         if 0 <= seq < len(self.items):
@@ -90,12 +152,25 @@ class MissionRunner:
         if it.frame in ABSOLUTE_FRAMES:
             down = self.frame.alt0 - it.z
         else:  # relative to home (terrain frames are treated as relative: flat ground)
-            down = -it.z
+            down = self.home[2] - it.z
         return (north, east, down)
 
-    def _advance(self):
+    def _next_target(self, vehicle):
+        """The position of the next positional item after the current one, or None."""
+        for it in self.items[self.seq + 1:]:
+            if it.command in (mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LAND):
+                return self._target(it, vehicle)
+            if it.command in NAV_COMMANDS:
+                return None
+        return None
+
+    def _advance(self, vehicle=None):
         self.reached.append(self.seq)
         self._arrived_s = None
+        if vehicle is not None:
+            it = self.items[self.seq]
+            self._previous = self._target(it, vehicle) if it.command != mavlink.MAV_CMD_NAV_TAKEOFF \
+                else tuple(vehicle.position)
         if self.seq + 1 < len(self.items):
             self.seq += 1
         else:
@@ -111,7 +186,7 @@ class MissionRunner:
         if self.finished or not self.items:
             if self._hold_point is None:
                 self._hold_point = tuple(vehicle.position)
-            return vm.hold(self._hold_point, vehicle.yaw)
+            return self.flyer.direct(vm.hold(self._hold_point, vehicle.yaw))
         self._hold_point = None
         it = self.items[self.seq]
         pos = vehicle.position
@@ -120,35 +195,38 @@ class MissionRunner:
             if self._takeoff_xy is None:
                 self._takeoff_xy = (pos[0], pos[1])
             north, east = self._takeoff_xy
-            down = target[2] if target[2] < -0.5 else -p['MIS_TAKEOFF_ALT']
-            if abs(pos[2] - down) <= p['NAV_MC_ALT_RAD'] * 0.5:
+            down = target[2] if target[2] < self.home[2] - 0.5 else self.home[2] - p['MIS_TAKEOFF_ALT']
+            if abs(pos[2] - down) <= p['NAV_MC_ALT_RAD']:
                 self._takeoff_xy = None
-                self._advance()
-            return vm.setpoint(position=(north, east, down), yaw=vehicle.yaw, z_up_max=p['MPC_TKO_SPEED'])
+                self._advance(vehicle)
+            return self.flyer.take_off(vehicle, (north, east, down), now_s)
         if it.command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return self._fly_then_land((0.0, 0.0), vehicle)
+            return self._fly_then_land((self.home[0], self.home[1]), vehicle, now_s)
         target = self._target(it, vehicle)
         if it.command == mavlink.MAV_CMD_NAV_LAND:
-            return self._fly_then_land(target, vehicle)
+            return self._fly_then_land(target, vehicle, now_s)
         radius = it.param2 if it.command == mavlink.MAV_CMD_NAV_WAYPOINT and it.param2 > 0 else p['NAV_ACC_RAD']
+        hold_s = max(it.param1, 0.0) if it.command in (mavlink.MAV_CMD_NAV_WAYPOINT,
+                                                         mavlink.MAV_CMD_NAV_LOITER_TIME) else None
+        corner = 0.0 if hold_s is None or hold_s > 0.0 else corner_speed(p, self._previous, target,
+                                                                         self._next_target(vehicle))
         if self._arrived_s is None and (_dist_xy(pos, target) <= radius
                                         and abs(pos[2] - target[2]) <= p['NAV_MC_ALT_RAD']):
             self._arrived_s = now_s
-        if self._arrived_s is not None and it.command in (mavlink.MAV_CMD_NAV_WAYPOINT,
-                                                          mavlink.MAV_CMD_NAV_LOITER_TIME):
-            if now_s - self._arrived_s >= max(it.param1, 0.0):
-                self._advance()
-        return vm.setpoint(position=target, yaw=vehicle.yaw, xy_speed_max=p['MPC_XY_CRUISE'])
+        if self._arrived_s is not None and hold_s is not None and now_s - self._arrived_s >= hold_s:
+            self._advance(vehicle)
+        return self.flyer.fly_to(vehicle, target, now_s, speed_at_target=corner)
 
-    def _fly_then_land(self, xy, vehicle):
+    def _fly_then_land(self, target, vehicle, now_s):
         pos = vehicle.position
-        if _dist_xy(pos, xy) > HOME_REACHED_M:
-            return vm.setpoint(position=(xy[0], xy[1], pos[2]), yaw=vehicle.yaw, xy_speed_max=self.params['MPC_XY_CRUISE'])
+        if _dist_xy(pos, target) > self.params['NAV_ACC_RAD'] and not vehicle.landed:
+            return self.flyer.fly_to(vehicle, (target[0], target[1], pos[2] if self.flyer.trajectory is None
+                                               else self.flyer.trajectory.position[2]), now_s)
         if vehicle.landed:
             self._advance()
             self.finished = True
-            return vm.hold((xy[0], xy[1], 0.0), vehicle.yaw)
-        return land_setpoint(self.params, xy, vehicle)
+            return self.flyer.direct(vm.hold((target[0], target[1], vehicle.ground_z), vehicle.yaw))
+        return self.flyer.direct(land_setpoint(self.params, target, vehicle))
 
 
 class Navigator:
@@ -157,32 +235,50 @@ class Navigator:
     def __init__(self, params, frame, vehicle):
         self.params, self.vehicle = params, vehicle
         self.mission = MissionRunner(params, frame)
+        self.flyer = Flyer(params)
         self.events = []
+        self.home = (0.0, 0.0, 0.0)
         self.hold_point = tuple(vehicle.position)
         self.hold_yaw = vehicle.yaw
         self.takeoff_target = None
         self.land_xy = None
         self.rtl_phase = None
+        self.rtl_down = None   # RTL: the return altitude as local z
+        self._loiter_at = None  # where AUTO.LOITER holds after a takeoff (the takeoff altitude)
+
+    @property
+    def home(self):
+        return self._home
+
+    @home.setter
+    def home(self, home):
+        self._home = tuple(home)
+        self.mission.home = self._home
 
     # -- what the commander decided ------------------------------------------------------------
 
     def on_mode(self, mode):
         """A new mode is flying: remember where it began."""
-        v = self.vehicle
-        self.hold_point = (v.position[0], v.position[1], min(v.position[2], 0.0))
+        v, p = self.vehicle, self.params
+        self.hold_point = (v.position[0], v.position[1], min(v.position[2], v.ground_z))
         self.hold_yaw = v.yaw
+        if mode == 'AUTO.LOITER' and self._loiter_at is not None:
+            self.hold_point = self._loiter_at
+        self._loiter_at = None
+        self.flyer.direct(None)
         if mode == 'AUTO.LAND':
             self.land_xy = (v.position[0], v.position[1])
         elif mode == 'AUTO.RTL':
-            near = math.hypot(v.position[0], v.position[1]) < self.params['RTL_MIN_DIST']
-            self.rtl_phase = 'land' if near else 'climb'
+            distance = math.hypot(v.position[0] - self.home[0], v.position[1] - self.home[1])
+            self.rtl_down = min(self.home[2] - rtl_return_height(p, distance), v.position[2])
+            self.rtl_phase = 'climb'
         elif mode == 'AUTO.MISSION':
             self.mission.restart_if_finished()
             self.events.append(ev.MissionCurrent(self.mission.seq))
         if mode != 'AUTO.TAKEOFF':
             self.takeoff_target = None
         elif self.takeoff_target is None:
-            self.takeoff_target = (v.position[0], v.position[1], -self.params['MIS_TAKEOFF_ALT'])
+            self.takeoff_target = (v.position[0], v.position[1], self.home[2] - p['MIS_TAKEOFF_ALT'])
 
     def on_armed(self, mode):
         self.hold_point = tuple(self.vehicle.position)
@@ -193,7 +289,7 @@ class Navigator:
         """NAV_TAKEOFF's altitude as a height above home, or MIS_TAKEOFF_ALT when it is NaN or too low."""
         if math.isfinite(altitude_amsl):
             wanted = altitude_amsl - home_alt
-            if wanted > self.vehicle.height() + 0.5:
+            if wanted > self.home[2] - self.vehicle.position[2] + 0.5:
                 return wanted
             self.events.append(ev.StatusText(mavlink.MAV_SEVERITY_WARNING,
                                              'Takeoff altitude below the vehicle, using MIS_TAKEOFF_ALT'))
@@ -201,7 +297,7 @@ class Navigator:
 
     def set_takeoff_height(self, height):
         v = self.vehicle
-        self.takeoff_target = (v.position[0], v.position[1], -height)
+        self.takeoff_target = (v.position[0], v.position[1], self.home[2] - height)
 
     def load_mission(self, items, flying_it):
         self.mission.load(items)
@@ -210,21 +306,22 @@ class Navigator:
 
     def landing(self, mode):
         """Whether the vehicle is landing in `mode` (EXTENDED_SYS_STATE's LANDING)."""
-        return mode == 'AUTO.LAND' or (mode == 'AUTO.RTL' and self.rtl_phase == 'land')
+        return mode == 'AUTO.LAND' or (mode == 'AUTO.RTL' and self.rtl_phase in ('descend', 'land'))
 
     # -- the setpoint ------------------------------------------------------------------------
 
     def setpoint(self, mode, armed, now_s):
         v, p = self.vehicle, self.params
         if mode == 'AUTO.TAKEOFF' and self.takeoff_target is not None:
-            if armed and abs(v.position[2] - self.takeoff_target[2]) <= TAKEOFF_REACHED_M:
+            if armed and abs(v.position[2] - self.takeoff_target[2]) <= p['NAV_MC_ALT_RAD']:
                 self.events.append(ev.TakeoffComplete())
-                return vm.hold((v.position[0], v.position[1], min(v.position[2], 0.0)), v.yaw)
-            return vm.setpoint(position=self.takeoff_target, yaw=self.hold_yaw, z_up_max=p['MPC_TKO_SPEED'])
+                self._loiter_at = self.takeoff_target  # PX4 loiters at the takeoff altitude
+                return self.flyer.direct(vm.hold(self.takeoff_target, self.hold_yaw))
+            return self.flyer.take_off(v, self.takeoff_target, now_s)
         if mode == 'AUTO.LAND':
             return land_setpoint(p, self.land_xy, v)
         if mode == 'AUTO.RTL':
-            return self._rtl_setpoint()
+            return self._rtl_setpoint(now_s)
         if mode == 'AUTO.MISSION' and armed:
             sp = self.mission.setpoint(v, now_s)
             for seq in self.mission.take_reached():
@@ -234,15 +331,25 @@ class Navigator:
             return sp
         return vm.hold(self.hold_point, self.hold_yaw)
 
-    def _rtl_setpoint(self):
-        v, p = self.vehicle, self.params
+    def _rtl_setpoint(self, now_s):
+        v, p, home, f = self.vehicle, self.params, self.home, self.flyer
+        pos = v.position
         if self.rtl_phase == 'climb':
-            height = max(p['RTL_RETURN_ALT'], v.height())
-            if v.height() >= height - CLIMB_REACHED_M:
+            if pos[2] <= self.rtl_down + p['NAV_MC_ALT_RAD']:
                 self.rtl_phase = 'return'
-            return vm.setpoint(position=(self.hold_point[0], self.hold_point[1], -height), yaw=v.yaw)
+            else:
+                return f.fly_to(v, (self.hold_point[0], self.hold_point[1], self.rtl_down), now_s)
         if self.rtl_phase == 'return':
-            if math.hypot(v.position[0], v.position[1]) < HOME_REACHED_M:
+            if math.hypot(pos[0] - home[0], pos[1] - home[1]) <= p['NAV_ACC_RAD']:
+                self.rtl_phase = 'descend'
+            else:
+                return f.fly_to(v, (home[0], home[1], self.rtl_down), now_s)
+        if self.rtl_phase == 'descend':
+            descend_down = home[2] - p['RTL_DESCEND_ALT']
+            if pos[2] >= descend_down - p['NAV_MC_ALT_RAD']:
                 self.rtl_phase = 'land'
-            return vm.setpoint(position=(0.0, 0.0, v.position[2]), yaw=v.yaw, xy_speed_max=p['MPC_XY_CRUISE'])
-        return land_setpoint(p, (0.0, 0.0), v)
+            else:
+                # no stop at RTL_DESCEND_ALT: the landing goes on at the landing speed there
+                return f.fly_to(v, (home[0], home[1], descend_down), now_s,
+                                speed_at_target=land_speed(p, p['RTL_DESCEND_ALT']))
+        return f.direct(land_setpoint(p, (home[0], home[1]), v))

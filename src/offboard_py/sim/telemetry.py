@@ -367,18 +367,25 @@ class TelemetryBuilder:
             self.time_usec(now_s), mavlink.GPS_FIX_TYPE_3D_FIX, lat, lon, alt, GPS_EPH, GPS_EPV,
             int(round(speed * 100)), cog, GPS_SATELLITES, alt, GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM_S, 0, 0)
 
+    def _amsl(self, st):
+        """Altitude AMSL (m) of the estimate: the local frame's origin is at the frame's altitude."""
+        return self.frame.alt0 - st.position[2]
+
     def _altitude(self, st, now_s):
-        amsl = self.frame.alt0 + st.height
-        # flat ground at home altitude: terrain is home's AMSL altitude, the clearance the height
-        return self.mav.altitude_encode(self.time_usec(now_s), amsl, amsl, st.height, st.height, self.frame.alt0,
-                                        st.height)
+        # PX4's ALTITUDE: monotonic and amsl from the estimate, local = -z, relative to home;
+        # flat ground at home's altitude: terrain is home's AMSL altitude, the clearance the height.
+        # Every field is a number, as PX4 SITL's (never NaN).
+        amsl = self._amsl(st)
+        home_amsl = self.frame.alt0 - st.home[2]
+        return self.mav.altitude_encode(self.time_usec(now_s), amsl, amsl, -st.position[2], st.height, home_amsl,
+                                        max(st.height, 0.0))
 
     def _vfr_hud(self, st, now_s):
         speed, _ = self._course(st)
         heading = int(round(math.degrees(st.yaw))) % 360
         throttle = int(round(st.thrust * 100)) if st.armed else 0
         # no airspeed sensor and no wind: airspeed is the ground speed
-        return self.mav.vfr_hud_encode(speed, speed, heading, throttle, self.frame.alt0 + st.height, -st.velocity[2])
+        return self.mav.vfr_hud_encode(speed, speed, heading, throttle, self._amsl(st), -st.velocity[2])
 
     def _extended_sys_state(self, st, now_s):
         return self.mav.extended_sys_state_encode(mavlink.MAV_VTOL_STATE_UNDEFINED, st.landed_state)
@@ -386,22 +393,23 @@ class TelemetryBuilder:
     def _home_position(self, st, now_s):
         if not st.ready:  # PX4 sets home once the estimator is good
             return None
-        f = self.frame
-        return self.mav.home_position_encode(int(round(f.lat0 * 1e7)), int(round(f.lon0 * 1e7)),
-                                             int(round(f.alt0 * 1000)), 0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0],
-                                             0.0, 0.0, 0.0, int(time.time() * 1e6))
+        # home is where the vehicle was armed (PX4 sets it again at arming), in both frames
+        lat, lon, alt = self.frame.to_global(*st.home)
+        return self.mav.home_position_encode(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
+                                             *st.home, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
+                                             int(time.time() * 1e6))
 
     def _highres_imu(self, st, now_s):
         ax, ay, az = st.specific_force
         c, s = math.cos(st.yaw), math.sin(st.yaw)
         mag_n, mag_d = 0.21, 0.43  # gauss, roughly central Europe
-        alt = self.frame.alt0 + st.height
+        alt = self._amsl(st)
         return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, 0.0, 0.0, st.yaw_rate,
                                            c * mag_n, -s * mag_n, mag_d, pressure_hpa(alt), 0.0, alt, TEMPERATURE_C,
                                            HIGHRES_IMU_ALL_FIELDS)
 
     def _scaled_pressure(self, st, now_s):
-        return self.mav.scaled_pressure_encode(self.time_boot_ms(now_s), pressure_hpa(self.frame.alt0 + st.height),
+        return self.mav.scaled_pressure_encode(self.time_boot_ms(now_s), pressure_hpa(self._amsl(st)),
                                                0.0, int(TEMPERATURE_C * 100))
 
     def _distance_sensor(self, st, now_s):
@@ -456,7 +464,7 @@ class TelemetryBuilder:
     def _open_drone_id_location(self, st, now_s):
         lat, lon, _ = self._global(st)
         speed, course = self._course(st)
-        amsl = self.frame.alt0 + st.height
+        amsl = self._amsl(st)
         status = (mavlink.MAV_ODID_STATUS_GROUND if st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND
                   else mavlink.MAV_ODID_STATUS_AIRBORNE)
         direction = 36100 if course is None else int(round(math.degrees(course) * 100.0)) % 36000

@@ -1,31 +1,47 @@
-"""Multicopter model of the simulated PX4: a PX4-like control cascade over point-mass dynamics.
+"""Multicopter model of the simulated PX4: PX4's position control over SIH's airframe.
 
-The controller is PX4's multicopter position control in miniature: a position error gives a
-velocity setpoint (MPC_XY_P, MPC_Z_P) limited by MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_UP / _DN
-(or tighter limits a flight mode asks for), a velocity error gives an acceleration setpoint
-(MPC_*_VEL_P_ACC) limited by MPC_ACC_UP_MAX / MPC_ACC_DOWN_MAX and the tilt limit. The airframe reaches the
-commanded acceleration through a first-order lag (motors and attitude loop), and its
-attitude is the one that points the thrust along that acceleration, with the yaw asked for.
-A takeoff from the ground ramps the climb-rate limit from 0 to MPC_TKO_SPEED over
-MPC_TKO_RAMP_T after the motors spool up, as PX4's takeoff handling does.
-The ground is z = 0 (NED, home altitude): the vehicle cannot go below it and rests there
-when it does not push upwards. A land detector reports ground contact and `landed` with
-PX4-like hysteresis.
+Controller, as PX4's mc_pos_control (PositionControl, TakeoffHandling):
+- position error -> velocity setpoint (MPC_XY_P, MPC_Z_P, plus the setpoint's feed-forward),
+  limited by MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_UP / _DN or the tighter limits a flight mode asks for;
+- velocity error -> acceleration setpoint by a PID (MPC_*_VEL_P_ACC, _I_ACC, _D_ACC) with PX4's
+  anti-windup (vertical: no integration into a thrust limit; horizontal: tracking anti-windup);
+- acceleration -> a thrust vector with MPC_THR_HOVER as the hover thrust, the tilt limited to
+  MPC_TILTMAX_AIR, the collective thrust to [MPC_THR_MIN, MPC_THR_MAX], vertical first;
+- takeoff: spool-up (COM_SPOOLUP_TIME), then the climb-rate limit ramps over MPC_TKO_RAMP_T from
+  -g / MPC_Z_VEL_P_ACC (zero thrust) to the climb speed, as PX4's takeoff ramp does.
+Airframe, as PX4's SIH quadrotor: mass SIH_MASS, four rotors of SIH_T_MAX each, linear drag
+SIH_KDV (which is what holds the cruise speed below MPC_XY_VEL_MAX with a 45 deg tilt), and the
+thrust vector following the command with the motor constant SIH_T_TAU plus the attitude loop.
+An optional gust (a seeded Ornstein-Uhlenbeck acceleration) makes the vehicle wander in hover
+as PX4 SITL's does; the estimate the controller flies and telemetry reports carries a little
+white noise (`Estimator`). Both are off for an ideal vehicle.
+The ground is flat at z = `ground_z` (local NED): PX4's estimate reads a little below home on
+the ground. A land detector in PX4's three stages (ground contact, maybe landed, landed) with
+its thrust thresholds says `landed`.
 
 All in local NED (m, m/s), yaw in rad from north. Time is passed in; nothing is read
 from a clock. No MAVLink, no ROS.
 """
 
 import math
+import random
 from collections import namedtuple
 
 GRAVITY = 9.80665
-ACC_LAG_S = 0.08          # motor + attitude loop response
+ATTITUDE_LAG_S = 0.08     # attitude loop (MC_ROLL_P/MC_PITCH_P 4 -> about 0.1 s) on top of SIH_T_TAU
 YAW_P = 2.8               # MC_YAW_P
 YAW_RATE_MAX = math.radians(200.0)  # MC_YAWRATE_MAX
-LANDED_AFTER_S = 0.35     # ground contact this long -> landed
-AIRBORNE_HEIGHT_M = 0.15  # higher than this above ground -> no longer landed
 NAN = float('nan')
+# PX4's MulticopterLandDetector: hysteresis of its stages and its thrust thresholds
+GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
+LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
+MINIMAL_THRUST_FRACTION = 0.3  # ... "minimal thrust" (maybe landed)
+TAKEOFF_TRIGGER_M = 0.2        # a position setpoint this far above asks for a takeoff (PX4)
+GROUND_Z_M = 0.17              # PX4 SITL's local z on the ground (measured 0.16-0.18 m)
+# hover wander and estimator noise of PX4 SITL's size (px4-sitl-measured.md: z +-0.1 m, xy up to 0.6 m)
+GUST_XY, GUST_Z, GUST_TAU_S = 0.5, 0.25, 4.0   # m/s^2 standard deviation, correlation time
+NOISE_POSITION_XY, NOISE_POSITION_Z, NOISE_VELOCITY = 0.02, 0.01, 0.03  # m, m, m/s (1 sigma)
+TAKEOFF_STATES = ('disarmed', 'spoolup', 'ready', 'rampup', 'flight')
 
 Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max')
 Setpoint.__doc__ = """What a flight mode asks of the controller. Vectors are NED 3-tuples whose NaN
@@ -85,22 +101,61 @@ def quaternion_from_thrust(acc_ned, yaw):
     return ((xb[1] - yb[0]) / s, (zb[0] + xb[2]) / s, (zb[1] + yb[2]) / s, 0.25 * s)
 
 
-class Vehicle:
-    """State and dynamics of one multicopter. `params` is a ParamStore (read every step)."""
+class Estimator:
+    """What PX4's estimator adds to the truth: white noise on position and velocity, and the gust
+    that makes the vehicle wander. Seeded: the same seed gives the same flight. `ideal` is silent."""
 
-    def __init__(self, params, position=(0.0, 0.0, 0.0), yaw=0.0):
+    def __init__(self, seed=1, ideal=False):
+        self.ideal = ideal
+        self.rng = random.Random(seed)
+        self.gust = [0.0, 0.0, 0.0]
+
+    def step_gust(self, dt):
+        if self.ideal:
+            return self.gust
+        decay = math.exp(-dt / GUST_TAU_S)
+        spread = math.sqrt(1.0 - decay * decay)
+        for i, sigma in enumerate((GUST_XY, GUST_XY, GUST_Z)):
+            self.gust[i] = decay * self.gust[i] + spread * sigma * self.rng.gauss(0.0, 1.0)
+        return self.gust
+
+    def measure(self, position, velocity):
+        if self.ideal:
+            return tuple(position), tuple(velocity)
+        g = self.rng.gauss
+        pos = (position[0] + g(0.0, NOISE_POSITION_XY), position[1] + g(0.0, NOISE_POSITION_XY),
+               position[2] + g(0.0, NOISE_POSITION_Z))
+        vel = tuple(v + g(0.0, NOISE_VELOCITY) for v in velocity)
+        return pos, vel
+
+
+class Vehicle:
+    """State and dynamics of one multicopter. `params` is a ParamStore (read every step).
+    `position`/`velocity` are the truth; `estimate` is what PX4 knows (and reports)."""
+
+    def __init__(self, params, position=None, yaw=0.0, estimator=None, ground_z=None):
         self.params = params
-        self.position = list(position)
+        self.estimator = estimator or Estimator(ideal=True)
+        if ground_z is None:
+            ground_z = 0.0 if self.estimator.ideal else GROUND_Z_M
+        self.ground_z = ground_z
+        self.position = list(position) if position is not None else [0.0, 0.0, ground_z]
         self.velocity = [0.0, 0.0, 0.0]
         self.acceleration = [0.0, 0.0, 0.0]   # achieved, net of gravity
+        self.thrust = [0.0, 0.0, 0.0]         # normalised thrust vector (NED), as the rotors give it
         self.yaw = yaw
         self.yaw_rate = 0.0
         self.motors_on = False
         self.motors_on_s = None
-        self.ramp_start_s = None  # takeoff ramp running since (None: not taking off)
-        self.ground_contact = position[2] >= 0.0
+        self.takeoff_state = 'disarmed'
+        self.ramp_vz = 0.0            # takeoff ramp: the climb-rate limit now (m/s, up positive)
+        self.integral = [0.0, 0.0, 0.0]
+        self.ground_contact = self.position[2] >= ground_z
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
+        self._stages = {}  # land-detector stage -> [state, since when its condition holds]
+        self._reset_stages(self.landed)
+        self.estimate = (tuple(self.position), (0.0, 0.0, 0.0))
         self._attitude = None  # cached for the current step: telemetry asks more often than we step
         # what the controller tracks, for telemetry (POSITION_TARGET_LOCAL_NED, ATTITUDE_TARGET):
         # the setpoint flown, the velocity setpoint it gave (NaN where not controlled) and the
@@ -108,33 +163,50 @@ class Vehicle:
         self.setpoint = None
         self.velocity_setpoint = (NAN, NAN, NAN)
         self.acceleration_setpoint = None
+        self.thrust_setpoint = [0.0, 0.0, 0.0]
 
     # -- commands from the commander -----------------------------------------------------
 
     def start_motors(self, now_s):
         self.motors_on, self.motors_on_s = True, now_s
-        self.ramp_start_s = now_s + self.params['COM_SPOOLUP_TIME'] if self.landed else None
+        self.takeoff_state = 'spoolup' if self.landed else 'flight'
+        self.integral = [0.0, 0.0, 0.0]
 
     def stop_motors(self):
-        self.motors_on, self.motors_on_s, self.ramp_start_s = False, None, None
-
-    def _takeoff_climb_limit(self, now_s):
-        """Climb-rate limit of the takeoff ramp, or None once the ramp is over."""
-        if self.ramp_start_s is None:
-            return None
-        ramp_s = self.params['MPC_TKO_RAMP_T']
-        elapsed = now_s - self.ramp_start_s
-        if ramp_s <= 0.0 or elapsed >= ramp_s:
-            self.ramp_start_s = None
-            return None
-        return self.params['MPC_TKO_SPEED'] * max(elapsed, 0.0) / ramp_s
+        self.motors_on, self.motors_on_s, self.takeoff_state = False, None, 'disarmed'
+        self.integral = [0.0, 0.0, 0.0]
 
     def spooled_up(self, now_s):
         return self.motors_on and now_s - self.motors_on_s >= self.params['COM_SPOOLUP_TIME']
 
-    # -- dynamics --------------------------------------------------------------------------
+    # -- PX4's takeoff handling --------------------------------------------------------------
 
-    def _velocity_setpoint(self, sp, now_s):
+    def _update_takeoff(self, sp, now_s, dt, climb_speed):
+        p, state = self.params, self.takeoff_state
+        if state == 'spoolup' and self.spooled_up(now_s):
+            state = 'ready'
+        if state == 'ready':
+            z = self.estimate[0][2]
+            wants = ((_is(sp.position[2]) and sp.position[2] < z - TAKEOFF_TRIGGER_M)
+                     or (_is(sp.velocity[2]) and not _is(sp.position[2]) and sp.velocity[2] < -TAKEOFF_TRIGGER_M))
+            if wants:
+                state = 'rampup'
+                self.ramp_vz = -GRAVITY / p['MPC_Z_VEL_P_ACC']  # from zero thrust
+        if state == 'rampup':
+            ramp_s = p['MPC_TKO_RAMP_T']
+            if ramp_s > dt:
+                self.ramp_vz += (climb_speed + GRAVITY / p['MPC_Z_VEL_P_ACC']) * dt / ramp_s
+            else:
+                self.ramp_vz = climb_speed
+            if self.ramp_vz >= climb_speed:
+                state = 'flight'
+        if state == 'flight' and self.landed:
+            state = 'ready'
+        self.takeoff_state = state
+
+    # -- the controller ----------------------------------------------------------------------
+
+    def _velocity_setpoint(self, sp, pos):
         p = self.params
         vel_sp = [0.0, 0.0, 0.0]
         controlled = [False, False, False]
@@ -142,83 +214,176 @@ class Vehicle:
         for i in range(3):
             ff = sp.velocity[i] if _is(sp.velocity[i]) else 0.0
             if _is(sp.position[i]):
-                vel_sp[i] = ff + gains[i] * (sp.position[i] - self.position[i])
+                vel_sp[i] = ff + gains[i] * (sp.position[i] - pos[i])
                 controlled[i] = True
             elif _is(sp.velocity[i]):
                 vel_sp[i] = sp.velocity[i]
                 controlled[i] = True
         xy_max = p['MPC_XY_VEL_MAX'] if sp.xy_speed_max is None else min(sp.xy_speed_max, p['MPC_XY_VEL_MAX'])
         up_max = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
-        ramp = self._takeoff_climb_limit(now_s)
-        if ramp is not None:
-            up_max = min(up_max, ramp)
         dn_max = p['MPC_Z_VEL_MAX_DN'] if sp.z_down_max is None else min(sp.z_down_max, p['MPC_Z_VEL_MAX_DN'])
+        if self.takeoff_state == 'rampup':
+            up_max = min(up_max, self.ramp_vz)  # negative early in the ramp: push down, no thrust
         vel_sp[0], vel_sp[1] = _limit_xy(vel_sp[0], vel_sp[1], xy_max)
-        vel_sp[2] = _clamp(vel_sp[2], -up_max, dn_max)
+        low = -up_max
+        vel_sp[2] = _clamp(vel_sp[2], low, max(dn_max, low))
         self.velocity_setpoint = tuple(v if c else NAN for v, c in zip(vel_sp, controlled))
         return vel_sp, controlled
 
-    def _acceleration_setpoint(self, sp, now_s):
+    def _control(self, sp, dt):
+        """PX4's PositionControl: the normalised thrust vector (NED) for setpoint `sp`."""
         p = self.params
-        vel_sp, controlled = self._velocity_setpoint(sp, now_s)
-        gains = (p['MPC_XY_VEL_P_ACC'], p['MPC_XY_VEL_P_ACC'], p['MPC_Z_VEL_P_ACC'])
+        pos, vel = self.estimate
+        vel_sp, controlled = self._velocity_setpoint(sp, pos)
+        gains_p = (p['MPC_XY_VEL_P_ACC'], p['MPC_XY_VEL_P_ACC'], p['MPC_Z_VEL_P_ACC'])
+        gains_i = (p['MPC_XY_VEL_I_ACC'], p['MPC_XY_VEL_I_ACC'], p['MPC_Z_VEL_I_ACC'])
+        gains_d = (p['MPC_XY_VEL_D_ACC'], p['MPC_XY_VEL_D_ACC'], p['MPC_Z_VEL_D_ACC'])
+        error = [vel_sp[i] - vel[i] if controlled[i] else 0.0 for i in range(3)]
         acc = [0.0, 0.0, 0.0]
         for i in range(3):
             ff = sp.acceleration[i] if _is(sp.acceleration[i]) else 0.0
-            acc[i] = ff + (gains[i] * (vel_sp[i] - self.velocity[i]) if controlled[i] else 0.0)
-        tilt_acc = GRAVITY * math.tan(math.radians(p['MPC_TILTMAX_AIR']))
-        acc[0], acc[1] = _limit_xy(acc[0], acc[1], tilt_acc)
-        acc[2] = _clamp(acc[2], -p['MPC_ACC_UP_MAX'], p['MPC_ACC_DOWN_MAX'])
-        return acc
+            if controlled[i]:
+                acc[i] = ff + gains_p[i] * error[i] + self.integral[i] - gains_d[i] * self.acceleration[i]
+            else:
+                acc[i] = ff
+        # acceleration -> thrust (MPC_ACC_DECOUPLE: the vertical thrust holds the vertical acceleration)
+        hover, thr_min, thr_max = p['MPC_THR_HOVER'], p['MPC_THR_MIN'], p['MPC_THR_MAX']
+        if self.takeoff_state == 'rampup':
+            thr_min = 0.0  # PX4 ramps from zero thrust on takeoff
+        bx, by, bz = -acc[0], -acc[1], GRAVITY
+        norm = math.sqrt(bx * bx + by * by + bz * bz)
+        bx, by, bz = bx / norm, by / norm, bz / norm
+        tilt_max = math.radians(p['MPC_TILTMAX_AIR'])
+        if math.acos(_clamp(bz, -1.0, 1.0)) > tilt_max:
+            horizontal = math.hypot(bx, by)
+            bx, by, bz = bx / horizontal * math.sin(tilt_max), by / horizontal * math.sin(tilt_max), math.cos(tilt_max)
+        collective = (acc[2] * hover / GRAVITY - hover) / bz
+        collective = min(collective, -thr_min)
+        thrust = [bx * collective, by * collective, bz * collective]
+        # saturation: vertical first, what is left for the horizontal
+        if thrust[2] < -thr_max:
+            thrust[2] = -thr_max
+        xy_room = math.sqrt(max(thr_max * thr_max - thrust[2] * thrust[2], 0.0))
+        thrust[0], thrust[1] = _limit_xy(thrust[0], thrust[1], xy_room)
+        # anti-windup: no vertical integration into a thrust limit; horizontal tracking anti-windup
+        if (thrust[2] >= -thr_min and error[2] >= 0.0) or (thrust[2] <= -thr_max and error[2] <= 0.0):
+            error[2] = 0.0
+        produced = (thrust[0] * GRAVITY / hover, thrust[1] * GRAVITY / hover)
+        if acc[0] ** 2 + acc[1] ** 2 > produced[0] ** 2 + produced[1] ** 2:
+            arw = 2.0 / gains_p[0]
+            error[0] -= arw * (acc[0] - produced[0])
+            error[1] -= arw * (acc[1] - produced[1])
+        for i in range(3):
+            if controlled[i]:
+                self.integral[i] += gains_i[i] * error[i] * dt
+        self.integral[2] = _clamp(self.integral[2], -GRAVITY, GRAVITY)
+        self.acceleration_setpoint = acc
+        return thrust
+
+    # -- dynamics --------------------------------------------------------------------------
 
     def step(self, dt, sp, now_s):
         """Advance the model by dt seconds, flying setpoint `sp` when the motors allow."""
-        flying = self.spooled_up(now_s)
+        p = self.params
+        climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
+        if self.motors_on:
+            self._update_takeoff(sp, now_s, dt, climb_speed)
+        flying = self.takeoff_state in ('rampup', 'flight')
         if flying:
-            acc_cmd = self._acceleration_setpoint(sp, now_s)
-            yaw_sp = sp.yaw if _is(sp.yaw) else self.yaw
+            thrust_sp = self._control(sp, dt)
             if _is(sp.yaw):
-                yaw_rate = YAW_P * math.atan2(math.sin(yaw_sp - self.yaw), math.cos(yaw_sp - self.yaw))
+                yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
             else:
                 yaw_rate = sp.yaw_rate if _is(sp.yaw_rate) else 0.0
             self.yaw_rate = _clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
-            self.setpoint, self.acceleration_setpoint = sp, acc_cmd
+            self.setpoint = sp
         else:
-            # motors off or idling: no lift; in the air that is a fall
-            acc_cmd = [0.0, 0.0, GRAVITY] if not self.ground_contact else [0.0, 0.0, 0.0]
+            # motors off or idling, the controller held (PX4 resets its integrals until the ramp)
+            thrust_sp = [0.0, 0.0, 0.0]
+            self.integral = [0.0, 0.0, 0.0]
             self.yaw_rate = 0.0
             self.setpoint, self.acceleration_setpoint = None, None
-        alpha = min(1.0, dt / ACC_LAG_S) if flying else 1.0
+            self.velocity_setpoint = (NAN, NAN, NAN)
+        self.thrust_setpoint = thrust_sp
+        alpha = min(1.0, dt / (p['SIH_T_TAU'] + ATTITUDE_LAG_S))
         for i in range(3):
-            self.acceleration[i] += alpha * (acc_cmd[i] - self.acceleration[i])
+            self.thrust[i] += alpha * (thrust_sp[i] - self.thrust[i])
+        thrust_acc = 4.0 * p['SIH_T_MAX'] / p['SIH_MASS']   # m/s^2 at full thrust
+        drag = p['SIH_KDV'] / p['SIH_MASS']
+        gust = self.estimator.step_gust(dt) if flying and not self.ground_contact else (0.0, 0.0, 0.0)
+        for i in range(3):
+            self.acceleration[i] = (self.thrust[i] * thrust_acc + (GRAVITY if i == 2 else 0.0)
+                                    - drag * self.velocity[i] + gust[i])
             self.velocity[i] += self.acceleration[i] * dt
             self.position[i] += self.velocity[i] * dt
         self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
         self._ground(now_s)
+        self.estimate = self.estimator.measure(self.position, self.velocity)
+        self._land_detector(sp, now_s)
         self._attitude = None
 
     def _ground(self, now_s):
-        if self.position[2] >= 0.0 and (self.velocity[2] >= 0.0 or self.acceleration[2] >= 0.0):
+        gz = self.ground_z
+        if self.position[2] >= gz and (self.velocity[2] >= 0.0 or self.acceleration[2] >= 0.0):
             # touching down or resting: the ground takes the load and stops the vehicle
-            self.position[2] = 0.0
+            self.position[2] = gz
             self.velocity = [0.0, 0.0, 0.0]
             self.acceleration = [min(a, 0.0) if i == 2 else 0.0 for i, a in enumerate(self.acceleration)]
             if not self.ground_contact:
                 self.ground_contact, self.contact_since_s = True, now_s
-        elif self.position[2] < -0.02:
+        elif self.position[2] < gz - 0.02:
             self.ground_contact, self.contact_since_s = False, None
-        if self.ground_contact and now_s - self.contact_since_s >= LANDED_AFTER_S:
-            self.landed = True
-        elif self.position[2] < -AIRBORNE_HEIGHT_M:
-            self.landed = False
+
+    def _reset_stages(self, state):
+        self._stages = {name: [state, None] for name in ('contact', 'maybe', 'landed')}
+
+    def _stage(self, name, condition, hold_s, now_s):
+        """A land-detector stage with PX4's hysteresis: it becomes true once `condition` held for
+        hold_s, and false at once when the condition fails."""
+        stage = self._stages[name]
+        if not condition:
+            stage[0], stage[1] = False, None
+        elif not stage[0]:
+            if stage[1] is None:
+                stage[1] = now_s
+            stage[0] = now_s - stage[1] >= hold_s
+        return stage[0]
+
+    def _land_detector(self, sp, now_s):
+        """PX4's MulticopterLandDetector: ground contact, maybe landed, landed."""
+        if not self.motors_on or self.takeoff_state in ('spoolup', 'ready'):
+            # disarmed or idling on the ground: landed while resting on it
+            self.landed = self.ground_contact and (self.landed or now_s - self.contact_since_s >= LANDED_S)
+            self._reset_stages(self.landed)
+            return
+        p = self.params
+        vel = self.estimate[1]
+        hover, thr_min = p['MPC_THR_HOVER'], p['MPC_THR_MIN']
+        thrust = math.sqrt(sum(t * t for t in self.thrust_setpoint))
+        low_thrust = thrust <= thr_min + (hover - thr_min) * LOW_THRUST_FRACTION
+        minimal_thrust = thrust <= thr_min + (hover - thr_min) * MINIMAL_THRUST_FRACTION
+        vz_sp = self.velocity_setpoint[2]
+        descending = _is(vz_sp) and vz_sp >= 1.1 * p['LNDMC_Z_VEL_MAX']
+        still = abs(vel[2]) < p['LNDMC_Z_VEL_MAX'] and math.hypot(vel[0], vel[1]) < p['LNDMC_XY_VEL_MAX']
+        contact = self._stage('contact', (low_thrust or (descending and still)) and still, GROUND_CONTACT_S, now_s)
+        maybe = self._stage('maybe', contact and minimal_thrust, MAYBE_LANDED_S, now_s)
+        self.landed = self._stage('landed', maybe, LANDED_S, now_s)
 
     # -- derived quantities ---------------------------------------------------------------
 
     def attitude(self):
-        """(w, x, y, z) NED/FRD quaternion."""
+        """(w, x, y, z) NED/FRD quaternion: the thrust's direction, with the yaw."""
         if self._attitude is None:
-            self._attitude = quaternion_from_thrust(self.acceleration, self.yaw)
+            t = self.thrust
+            if t[0] == 0.0 and t[1] == 0.0 and t[2] >= 0.0:
+                self._attitude = quaternion_from_thrust((0.0, 0.0, 0.0), self.yaw)
+            else:
+                self._attitude = quaternion_from_thrust((t[0], t[1], t[2] + GRAVITY), self.yaw)
         return self._attitude
+
+    def collective_thrust(self):
+        """Normalised thrust 0..1 the rotors give now."""
+        return min(1.0, math.sqrt(sum(t * t for t in self.thrust)))
 
     def specific_force_body(self):
         """What an accelerometer reads (m/s^2, FRD): acceleration minus gravity, in body axes."""
@@ -233,5 +398,5 @@ class Vehicle:
                 r02 * f[0] + r12 * f[1] + r22 * f[2])
 
     def height(self):
-        """Height above home (m, up positive)."""
-        return -self.position[2]
+        """Height above the ground (m, up positive): what the landing speeds go by."""
+        return self.ground_z - self.position[2]
