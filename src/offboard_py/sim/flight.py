@@ -176,6 +176,8 @@ class Flight:
         v.step(dt, sp, now_s)
         self.battery.step(dt, c.armed)
         c.landed = v.landed
+        if self.navigator.mission.landed_at_end and c.nav_mode == 'AUTO.MISSION':
+            c.mission_landed(now_s)
         c.check_landing(now_s)
         self._route(now_s)
 

@@ -121,14 +121,15 @@ class MissionRunner:
         self._hold_point = None
         self._takeoff_xy = None
         self._previous = None    # where the flight to the current item began (for corner speeds)
+        self.landed_at_end = False  # the mission ended with a landing, and the vehicle is down
 
     def load(self, items, seq=0):
-        self.items, self.seq, self.finished = list(items), seq, False
+        self.items, self.seq, self.finished, self.landed_at_end = list(items), seq, False, False
         self._arrived_s = self._hold_point = self._takeoff_xy = self._previous = None
 
     def set_current(self, seq):
         if 0 <= seq < len(self.items):
-            self.seq, self.finished, self._arrived_s = seq, False, None
+            self.seq, self.finished, self._arrived_s, self.landed_at_end = seq, False, None, False
             return True
         return False
 
@@ -224,7 +225,7 @@ class MissionRunner:
                                                else self.flyer.trajectory.position[2]), now_s)
         if vehicle.landed:
             self._advance()
-            self.finished = True
+            self.finished = self.landed_at_end = True
             return self.flyer.direct(vm.hold((target[0], target[1], vehicle.ground_z), vehicle.yaw))
         return self.flyer.direct(land_setpoint(self.params, target, vehicle))
 

@@ -71,6 +71,21 @@ RANGES = {
     'MPC_XY_VEL_P_ACC': (1.2, 5.0),
     'MPC_Z_VEL_P_ACC': (2.0, 15.0),
     'SYS_FAILURE_EN': (0, 1),
+    # the flight model (issue 13): PX4's trajectory, velocity control, thrust and return cone
+    'MPC_ACC_HOR': (2.0, 15.0),
+    'MPC_JERK_AUTO': (1.0, 80.0),
+    'MPC_Z_V_AUTO_UP': (0.5, 8.0),
+    'MPC_Z_V_AUTO_DN': (0.5, 4.0),
+    'MPC_XY_TRAJ_P': (0.1, 1.0),
+    'MPC_XY_ERR_MAX': (0.1, 10.0),
+    'MPC_XY_VEL_I_ACC': (0.0, 60.0),
+    'MPC_XY_VEL_D_ACC': (0.1, 2.0),
+    'MPC_Z_VEL_I_ACC': (0.2, 3.0),
+    'MPC_Z_VEL_D_ACC': (0.0, 2.0),
+    'MPC_THR_HOVER': (0.1, 0.8),
+    'MPC_THR_MIN': (0.05, 1.0),
+    'MPC_THR_MAX': (0.0, 1.0),
+    'RTL_CONE_ANG': (0, 90),
 }
 
 

@@ -305,11 +305,12 @@ class Vehicle:
             self.setpoint, self.acceleration_setpoint = None, None
             self.velocity_setpoint = (NAN, NAN, NAN)
         self.thrust_setpoint = thrust_sp
-        alpha = min(1.0, dt / (p['SIH_T_TAU'] + ATTITUDE_LAG_S))
+        alpha = min(1.0, dt / (max(p['SIH_T_TAU'], 0.0) + ATTITUDE_LAG_S))
         for i in range(3):
             self.thrust[i] += alpha * (thrust_sp[i] - self.thrust[i])
-        thrust_acc = 4.0 * p['SIH_T_MAX'] / p['SIH_MASS']   # m/s^2 at full thrust
-        drag = p['SIH_KDV'] / p['SIH_MASS']
+        mass = max(p['SIH_MASS'], 0.01)  # SIH's airframe parameters are not range-checked
+        thrust_acc = 4.0 * p['SIH_T_MAX'] / mass   # m/s^2 at full thrust
+        drag = p['SIH_KDV'] / mass
         gust = self.estimator.step_gust(dt) if flying and not self.ground_contact else (0.0, 0.0, 0.0)
         for i in range(3):
             self.acceleration[i] = (self.thrust[i] * thrust_acc + (GRAVITY if i == 2 else 0.0)
