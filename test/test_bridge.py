@@ -296,6 +296,49 @@ class BridgeTest(OffboardTestCase):
                             '%s: arrival minus header stamp (ms) outside [-1, 20]: %s' % (
                                 topic, ['%.1f' % lag for lag in lags if not -1.0 <= lag <= 20.0]))
 
+    def test_09d_more_mavros_topics_carry_the_fcus_data(self):
+        """The topics mavros users reach for, at the rate of the FCU message behind each (PX4's
+        onboard stream: GLOBAL_POSITION_INT and HIGHRES_IMU 50 Hz, LOCAL_POSITION_NED 30 Hz,
+        POSITION_TARGET_LOCAL_NED 10 Hz, GPS_RAW_INT 8 Hz, SYSTEM_TIME 1 Hz, BATTERY_STATUS 0.5 Hz).
+        raw/gps_vel is left out: on the ground GPS_RAW_INT has no course, and mavros then
+        publishes none (a unit test holds the moving case)."""
+        from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import BatteryState, FluidPressure, MagneticField, Temperature, TimeReference
+        from std_msgs.msg import Float64, UInt32
+        from tf2_msgs.msg import TFMessage
+        expected = {  # topic: (type, FCU rate in Hz)
+            'global_position/local': (Odometry, 50), 'global_position/rel_alt': (Float64, 50),
+            'global_position/compass_hdg': (Float64, 50), 'global_position/raw/fix': (NavSatFix, 8),
+            'global_position/raw/satellites': (UInt32, 8),
+            'local_position/odom': (Odometry, 30), 'local_position/velocity_body': (TwistStamped, 30),
+            'imu/data_raw': (Imu, 50), 'imu/mag': (MagneticField, 50), 'imu/static_pressure': (FluidPressure, 50),
+            'imu/temperature_imu': (Temperature, 50), 'setpoint_raw/target_local': (PositionTarget, 10),
+            'time_reference': (TimeReference, 1), 'battery': (BatteryState, 0.5), '/tf': (TFMessage, 30)}
+        self.wait_for_connected(self.sim, 15.0)
+        counts = {topic: 0 for topic in expected}
+
+        def count(topic):
+            def callback(_msg):
+                counts[topic] += 1
+            return callback
+        subs = [rospy.Subscriber(topic if topic.startswith('/') else 'mavros/' + topic, cls, count(topic))
+                for topic, (cls, _rate) in expected.items()]
+        window = 8.0
+        try:
+            time.sleep(1.0)
+            for topic in counts:
+                counts[topic] = 0
+            time.sleep(window)
+        finally:
+            for sub in subs:
+                sub.unregister()
+        rates = {topic: counts[topic] / window for topic in counts}
+        print('bridge topic rates (Hz): ' + ', '.join('%s %.1f' % kv for kv in sorted(rates.items())))
+        for topic, (_cls, rate) in expected.items():
+            low = rate * 0.8 if rate >= 1 else 0.2  # BATTERY_STATUS: 4 in 8 s, allow for the window's edges
+            self.assertGreaterEqual(rates[topic], low, '%s: %.1f Hz, the FCU sends at %g Hz' % (topic, rates[topic], rate))
+            self.assertLessEqual(rates[topic], rate * 1.2 + 0.2, '%s: %.1f Hz' % (topic, rates[topic]))
+
     def test_10_disconnected_after_timeout(self):
         self.wait_for_connected(self.silent, 10.0)
         self.fcu.beating = False

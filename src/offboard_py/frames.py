@@ -83,3 +83,27 @@ def rotate(q, v):
 
 def wxyz_to_xyzw(w, x, y, z):
     return x, y, z, w
+
+
+# -- geodetic (WGS-84), for positions the FCU gives in latitude/longitude -----------------------
+
+WGS84_A = 6378137.0
+WGS84_E2 = 6.69437999014e-3
+
+
+def geodetic_to_ecef(lat_deg, lon_deg, alt_m):
+    """WGS-84 latitude, longitude (deg) and height (m) -> ECEF (m)."""
+    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
+    n = WGS84_A / math.sqrt(1.0 - WGS84_E2 * math.sin(lat) ** 2)
+    return ((n + alt_m) * math.cos(lat) * math.cos(lon),
+            (n + alt_m) * math.cos(lat) * math.sin(lon),
+            (n * (1.0 - WGS84_E2) + alt_m) * math.sin(lat))
+
+
+def ecef_offset_to_enu(d, lat_deg, lon_deg):
+    """An ECEF offset vector -> (east, north, up) in the tangent plane at lat/lon (deg)."""
+    lat, lon = math.radians(lat_deg), math.radians(lon_deg)
+    sl, cl, sp, cp = math.sin(lon), math.cos(lon), math.sin(lat), math.cos(lat)
+    return (-sl * d[0] + cl * d[1],
+            -sp * cl * d[0] - sp * sl * d[1] + cp * d[2],
+            cp * cl * d[0] + cp * sl * d[1] + sp * d[2])

@@ -20,7 +20,7 @@ from mavros_msgs.srv import (CommandBoolRequest, CommandTOLRequest, ParamGetRequ
                              ParamSetRequest, SetModeRequest, WaypointPullRequest, WaypointPushRequest)
 
 from offboard_py import frames
-from offboard_py.bridge import command, imu, local_position, mission, node, param, setpoint, sys_status
+from offboard_py.bridge import command, global_position, imu, local_position, mission, node, param, setpoint, sys_status
 from offboard_py.bridge.config import read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import mavlink
@@ -170,12 +170,18 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
     assert set(rig.ros.services) == {
         '~set_mode', '~cmd/arming', '~cmd/takeoff', '~cmd/land', '~param/pull', '~param/get', '~param/set',
         '~mission/push', '~mission/pull', '~mission/clear'}
-    assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local'}
+    assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local',
+                                          '~setpoint_velocity/cmd_vel', '~setpoint_velocity/cmd_vel_unstamped'}
     topics = rig.ros.topics
     assert set(topics) == {
         '~state', '~extended_state', '~local_position/pose', '~local_position/velocity_local',
-        '~global_position/global', '~altitude', '~imu/data', '~home_position/home', '~mission/waypoints',
-        '~mission/reached', '~time_reference'}
+        '~local_position/velocity_body', '~local_position/odom', '~global_position/global',
+        '~global_position/local', '~global_position/rel_alt', '~global_position/compass_hdg',
+        '~global_position/raw/fix', '~global_position/raw/gps_vel', '~global_position/raw/satellites',
+        '~altitude', '~imu/data', '~imu/data_raw', '~imu/mag', '~imu/static_pressure', '~imu/temperature_imu',
+        '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
+        '~setpoint_raw/target_local'}
+    assert '/tf' in Rig(*node.PLUGINS, local_position__tf__send=True).ros.topics, 'tf/send adds /tf'
     assert {name for name, pub in topics.items() if pub.latch} == {'~state', '~home_position/home',
                                                                    '~mission/waypoints'}
     assert {name: pub.queue_size for name, pub in topics.items() if pub.queue_size != 10} == {
@@ -588,3 +594,87 @@ def test_setpoint_position_goes_out_as_position_and_yaw_in_ned():
     pose.pose.position.x = float('nan')
     rig.ros.subscriptions['~setpoint_position/local'](pose)
     assert len(rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')) == 1 and rig.plugin.rejected == 1
+
+
+# -- the topics mavros users reach for: global position, raw GPS, odometry, battery, targets ------
+
+HOME_E7 = (473977420, 85455940)
+
+
+def test_global_fix_status_comes_from_gps_raw_int_and_local_starts_at_the_first_fix():
+    rig = Rig(global_position.GlobalPosition)
+    gpi = BUILD.global_position_int_encode(1000, HOME_E7[0], HOME_E7[1], 488000, 0, 100, -200, 0, 9000)
+    rig.fcu.send(gpi)
+    [fix] = rig.published('~global_position/global')
+    assert fix.status.status == -1, 'no GPS_RAW_INT yet: no fix, as mavros without GPS_RAW_INT'
+    assert rig.published('~global_position/local') == [], 'no map origin without a fix'
+    assert rig.published('~global_position/rel_alt')[-1].data == 0.0
+    assert rig.published('~global_position/compass_hdg')[-1].data == 90.0
+    rig.fcu.send(BUILD.gps_raw_int_encode(1000000, 3, HOME_E7[0], HOME_E7[1], 488000, 70, 110, 150, 9000, 10))
+    raw = rig.published('~global_position/raw/fix')[-1]
+    assert (raw.status.status, raw.status.service) == (0, 1)
+    assert raw.position_covariance[0] == pytest.approx(0.49) and raw.position_covariance[8] == pytest.approx(1.96)
+    vel = rig.published('~global_position/raw/gps_vel')[-1].twist.linear
+    assert (vel.x, vel.y) == pytest.approx((1.5, 0.0), abs=1e-9), 'course 90 deg: east'
+    assert rig.published('~global_position/raw/satellites')[-1].data == 10
+    rig.fcu.send(gpi)  # the first position with a fix is the origin
+    north_10m = HOME_E7[0] + int(round(10.0 / 111194.9 * 1e7))
+    rig.fcu.send(BUILD.global_position_int_encode(2000, north_10m, HOME_E7[1], 493000, 5000, 100, -200, 0, 9000))
+    assert rig.published('~global_position/global')[-1].status.status == 0
+    odom = rig.published('~global_position/local')[-1]
+    p, v = odom.pose.pose.position, odom.twist.twist.linear
+    assert (p.x, p.y, p.z) == pytest.approx((0.0, 10.0, 5.0), abs=0.05)
+    assert (v.x, v.y, v.z) == pytest.approx((-2.0, 1.0, 0.0)), 'NED cm/s -> ENU m/s'
+    assert rig.published('~global_position/rel_alt')[-1].data == 5.0
+
+
+def test_odom_velocity_body_and_tf_from_local_position():
+    rig = Rig(local_position.LocalPosition, local_position__tf__send=True)
+    # facing east in NED (yaw +90 deg), flying east at 2 m/s
+    rig.fcu.send(BUILD.attitude_quaternion_encode(0, math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5), 0.0, 0.0, 0.0))
+    rig.fcu.send(BUILD.local_position_ned_encode(0, 1.0, 2.0, -3.0, 0.0, 2.0, 0.0))
+    odom = rig.published('~local_position/odom')[-1]
+    assert (odom.header.frame_id, odom.child_frame_id) == ('map', 'base_link')
+    p = odom.pose.pose.position
+    assert (p.x, p.y, p.z) == (2.0, 1.0, 3.0)
+    lin = odom.twist.twist.linear
+    assert (lin.x, lin.y, lin.z) == pytest.approx((2.0, 0.0, 0.0), abs=1e-6), 'facing east, flying east: forward'
+    [tf] = rig.published('/tf')
+    [t] = tf.transforms
+    assert (t.header.frame_id, t.child_frame_id) == ('map', 'base_link')
+    assert (t.transform.translation.x, t.transform.translation.y, t.transform.translation.z) == (2.0, 1.0, 3.0)
+
+
+def test_battery_from_sys_status_until_battery_status_arrives():
+    from offboard_py.bridge import battery
+    rig = Rig(battery.Battery)
+    rig.fcu.send(BUILD.sys_status_encode(0, 0, 0, 137, 16200, -100, 100, 0, 0, 0, 0, 0, 0))
+    b = rig.published('~battery')[-1]
+    assert (b.voltage, b.current, b.percentage) == pytest.approx((16.2, 1.0, 1.0)) and b.present
+    cells = [4050] * 4 + [0xFFFF] * 6
+    rig.fcu.send(BUILD.battery_status_encode(0, 1, 1, 2500, cells, 500, 0, 0, 90))
+    b = rig.published('~battery')[-1]
+    assert b.voltage == pytest.approx(16.2) and list(b.cell_voltage) == pytest.approx([4.05] * 4)
+    assert (b.current, b.percentage, b.temperature) == pytest.approx((-5.0, 0.9, 25.0))
+    count = len(rig.published('~battery'))
+    rig.fcu.send(BUILD.sys_status_encode(0, 0, 0, 137, 16200, -100, 100, 0, 0, 0, 0, 0, 0))
+    assert len(rig.published('~battery')) == count, 'BATTERY_STATUS wins over SYS_STATUS'
+
+
+def test_cmd_vel_goes_out_as_velocity_and_yaw_rate_and_target_local_comes_back_enu():
+    from geometry_msgs.msg import Twist
+    rig = Rig(setpoint.Setpoint)
+    twist = Twist()
+    twist.linear.x, twist.linear.y, twist.linear.z, twist.angular.z = 1.0, 2.0, 0.5, 0.3
+    rig.ros.subscriptions['~setpoint_velocity/cmd_vel_unstamped'](twist)
+    [sent] = rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')
+    assert sent.type_mask == 0x5C7 and sent.coordinate_frame == mavlink.MAV_FRAME_LOCAL_NED
+    assert (sent.vx, sent.vy, sent.vz, sent.yaw_rate) == pytest.approx((2.0, 1.0, -0.5, -0.3))
+    twist.linear.x = float('nan')
+    rig.ros.subscriptions['~setpoint_velocity/cmd_vel_unstamped'](twist)
+    assert len(rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')) == 1, 'NaN is refused'
+    rig.fcu.send(BUILD.position_target_local_ned_encode(500, mavlink.MAV_FRAME_LOCAL_NED, 0x9F8, 1.0, 2.0, -3.0,
+                                                        0, 0, 0, 0, 0, 0, 0.0, 0.0))
+    target = rig.published('~setpoint_raw/target_local')[-1]
+    assert (target.position.x, target.position.y, target.position.z) == (2.0, 1.0, 3.0)
+    assert target.yaw == pytest.approx(math.pi / 2) and target.type_mask == 0x9F8

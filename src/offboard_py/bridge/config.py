@@ -25,7 +25,8 @@ def read_config(get):
     """All node parameters through get(name, default), checked. Raises ConfigError."""
     cfg = {}
     for name, default in (('fcu_url', DEFAULT_FCU_URL), ('gcs_url', ''), ('local_position/frame_id', 'map'),
-                          ('global_position/frame_id', 'map'), ('signing/key_file', '')):
+                          ('global_position/frame_id', 'map'), ('signing/key_file', ''),
+                          ('local_position/tf/frame_id', 'map'), ('local_position/tf/child_frame_id', 'base_link')):
         value = get(name, default)
         if not isinstance(value, str):
             raise ConfigError('parameter ~%s: expected a string, got %r' % (name, value))
@@ -49,6 +50,11 @@ def read_config(get):
             raise ConfigError('parameter ~%s: %s' % (name, err))
     if cfg['fcu'] is None:
         raise ConfigError('parameter ~fcu_url: empty')
+    for name, default in (('local_position/tf/send', False),):
+        value = get(name, default)
+        if not isinstance(value, bool):
+            raise ConfigError('parameter ~%s: expected true or false, got %r' % (name, value))
+        cfg[name] = value
     required = get('signing/required', True)
     if not isinstance(required, bool):
         raise ConfigError('parameter ~signing/required: expected true or false, got %r' % (required,))

@@ -1,12 +1,18 @@
-"""mavros imu: ~imu/data (sensor_msgs/Imu, ENU/FLU).
+"""mavros imu: the IMU in ROS frames (FLU body), frame base_link.
 
-Orientation and angular velocity from the bridge's attitude cache, linear acceleration
-from the latest HIGHRES_IMU; published on every ATTITUDE_QUATERNION, frame base_link.
+- ~imu/data (sensor_msgs/Imu): orientation and angular velocity from the bridge's attitude
+  cache, linear acceleration from the latest HIGHRES_IMU; on every ATTITUDE_QUATERNION;
+- from each HIGHRES_IMU: ~imu/data_raw (Imu without orientation: orientation_covariance[0]
+  is -1, as mavros), ~imu/mag (MagneticField, tesla), ~imu/static_pressure (FluidPressure,
+  Pa) and ~imu/temperature_imu (Temperature, deg C).
 """
 
-from sensor_msgs.msg import Imu as ImuMsg
+from sensor_msgs.msg import FluidPressure, Imu as ImuMsg, MagneticField, Temperature
 
 from offboard_py import frames
+
+GAUSS_TO_TESLA = 1e-4
+HPA_TO_PA = 100.0
 
 
 class Imu:
@@ -14,11 +20,37 @@ class Imu:
         self.bridge = bridge
         self.accel_flu = (0.0, 0.0, 0.0)
         self.pub = bridge.publisher('~imu/data', ImuMsg)
+        self.raw_pub = bridge.publisher('~imu/data_raw', ImuMsg)
+        self.mag_pub = bridge.publisher('~imu/mag', MagneticField)
+        self.pressure_pub = bridge.publisher('~imu/static_pressure', FluidPressure)
+        self.temperature_pub = bridge.publisher('~imu/temperature_imu', Temperature)
         bridge.on('HIGHRES_IMU', self._on_highres_imu)
         bridge.on('ATTITUDE_QUATERNION', self._on_attitude)
 
     def _on_highres_imu(self, imu):
         self.accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
+        if not (self.raw_pub.get_num_connections() or self.mag_pub.get_num_connections()
+                or self.pressure_pub.get_num_connections() or self.temperature_pub.get_num_connections()):
+            return
+        stamp = self.bridge.fcu_stamp_us(imu.time_usec)
+        raw = ImuMsg()
+        raw.header.stamp, raw.header.frame_id = stamp, 'base_link'
+        raw.orientation_covariance[0] = -1.0  # no orientation in this message
+        w, a = raw.angular_velocity, raw.linear_acceleration
+        w.x, w.y, w.z = frames.frd_to_flu(imu.xgyro, imu.ygyro, imu.zgyro)
+        a.x, a.y, a.z = self.accel_flu
+        self.raw_pub.publish(raw)
+        mag = MagneticField()
+        mag.header = raw.header
+        m = mag.magnetic_field
+        m.x, m.y, m.z = (c * GAUSS_TO_TESLA for c in frames.frd_to_flu(imu.xmag, imu.ymag, imu.zmag))
+        self.mag_pub.publish(mag)
+        pressure = FluidPressure(fluid_pressure=imu.abs_pressure * HPA_TO_PA)
+        pressure.header = raw.header
+        self.pressure_pub.publish(pressure)
+        temperature = Temperature(temperature=imu.temperature)
+        temperature.header = raw.header
+        self.temperature_pub.publish(temperature)
 
     def _on_attitude(self, att):
         # the bridge's cache has already taken this message (its handler runs before any plugin's)

@@ -6,6 +6,10 @@
 - ~setpoint_raw/local (PositionTarget): LOCAL_NED (and LOCAL_OFFSET_NED) vectors ENU->NED,
   BODY_NED (and BODY_OFFSET_NED) vectors FLU->FRD; yaw_ned = pi/2 - yaw, yaw_rate negated;
   type_mask passed through.
+- ~setpoint_velocity/cmd_vel (TwistStamped) and cmd_vel_unstamped (Twist), ENU: frame
+  LOCAL_NED, type_mask velocity and yaw rate (0x5C7), as mavros's setpoint_velocity.
+- ~setpoint_raw/target_local (PositionTarget, ENU) from POSITION_TARGET_LOCAL_NED: what the
+  FCU's controller tracks.
 A setpoint with a NaN or infinite number in a field it uses is not sent, and is logged
 (at most a line per topic every 5 s); in a field its type_mask ignores, it is sent as 0.
 """
@@ -13,7 +17,7 @@ A setpoint with a NaN or infinite number in a field it uses is not sent, and is 
 import math
 
 import rospy
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from mavros_msgs.msg import PositionTarget
 
 from offboard_py import frames
@@ -44,7 +48,13 @@ class Setpoint:
         self.subs = [
             bridge.subscriber('~setpoint_position/local', PoseStamped, self._on_pose),
             bridge.subscriber('~setpoint_raw/local', PositionTarget, self._on_raw),
+            bridge.subscriber('~setpoint_velocity/cmd_vel', TwistStamped,
+                              lambda msg: self._on_velocity('setpoint_velocity/cmd_vel', msg.header.stamp, msg.twist)),
+            bridge.subscriber('~setpoint_velocity/cmd_vel_unstamped', Twist,
+                              lambda msg: self._on_velocity('setpoint_velocity/cmd_vel_unstamped', bridge.now(), msg)),
         ]
+        self.target_pub = bridge.publisher('~setpoint_raw/target_local', PositionTarget)
+        bridge.on('POSITION_TARGET_LOCAL_NED', self._on_target)
 
     def _reject(self, topic, what):
         """Count and log; at most one line per topic every 5 s (rospy's throttle would merge topics)."""
@@ -82,3 +92,27 @@ class Setpoint:
         b.send(b.mav.set_position_target_local_ned_encode(
             _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, msg.coordinate_frame,
             msg.type_mask, *position, *velocity, *accel, yaw, yaw_rate))
+
+    def _on_velocity(self, topic, stamp, twist):
+        v, w = twist.linear, twist.angular
+        if not _finite(v.x, v.y, v.z, w.z):
+            self._reject(topic, 'a NaN or infinite value')
+            return
+        b = self.bridge
+        b.send(b.mav.set_position_target_local_ned_encode(
+            _time_boot_ms(stamp), b.target_system, b.target_component, mavlink.MAV_FRAME_LOCAL_NED,
+            typemask.VELOCITY_YAW_RATE, 0.0, 0.0, 0.0, *frames.enu_to_ned(v.x, v.y, v.z), 0.0, 0.0, 0.0,
+            0.0, -w.z))
+
+    def _on_target(self, tgt):
+        if not self.target_pub.get_num_connections():
+            return
+        msg = PositionTarget()
+        msg.header.stamp = self.bridge.fcu_stamp_ms(tgt.time_boot_ms)
+        msg.coordinate_frame, msg.type_mask = tgt.coordinate_frame, tgt.type_mask
+        for field, vector in ((msg.position, (tgt.x, tgt.y, tgt.z)), (msg.velocity, (tgt.vx, tgt.vy, tgt.vz)),
+                              (msg.acceleration_or_force, (tgt.afx, tgt.afy, tgt.afz))):
+            field.x, field.y, field.z = frames.ned_to_enu(*vector)
+        msg.yaw = frames.yaw_ned_to_enu(tgt.yaw) if math.isfinite(tgt.yaw) else tgt.yaw
+        msg.yaw_rate = -tgt.yaw_rate
+        self.target_pub.publish(msg)

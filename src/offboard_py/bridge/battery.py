@@ -1,0 +1,64 @@
+"""mavros sys_status's battery topic: ~battery (sensor_msgs/BatteryState).
+
+From BATTERY_STATUS of battery 0 when the FCU sends it (PX4 does, at 0.5 Hz): voltage the sum
+of the cells, each cell in cell_voltage, current (A, positive charging, so PX4's draw is
+negative), percentage 0..1, temperature. Until then, from SYS_STATUS's battery fields (5 Hz),
+as mavros does. Unknown values are NaN.
+"""
+
+import math
+
+from sensor_msgs.msg import BatteryState
+
+from offboard_py.dialect import mavlink
+
+UINT16_UNKNOWN = 0xFFFF
+INT16_UNKNOWN = 0x7FFF
+TECHNOLOGY = {mavlink.MAV_BATTERY_TYPE_LIPO: BatteryState.POWER_SUPPLY_TECHNOLOGY_LIPO,
+              mavlink.MAV_BATTERY_TYPE_LIFE: BatteryState.POWER_SUPPLY_TECHNOLOGY_LIFE,
+              mavlink.MAV_BATTERY_TYPE_LION: BatteryState.POWER_SUPPLY_TECHNOLOGY_LION,
+              mavlink.MAV_BATTERY_TYPE_NIMH: BatteryState.POWER_SUPPLY_TECHNOLOGY_NIMH}
+
+
+def _battery(stamp, voltage, current_ca, remaining_pct):
+    msg = BatteryState()
+    msg.header.stamp = stamp
+    msg.voltage = voltage
+    msg.current = -current_ca / 100.0 if current_ca != -1 else math.nan
+    msg.charge = msg.capacity = msg.design_capacity = math.nan
+    msg.percentage = remaining_pct / 100.0 if remaining_pct != -1 else math.nan
+    msg.temperature = math.nan
+    msg.power_supply_status = BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
+    msg.power_supply_health = BatteryState.POWER_SUPPLY_HEALTH_UNKNOWN
+    msg.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN
+    msg.present = True
+    return msg
+
+
+class Battery:
+    def __init__(self, bridge):
+        self.bridge = bridge
+        self.has_battery_status = False
+        self.pub = bridge.publisher('~battery', BatteryState)
+        bridge.on('SYS_STATUS', self._on_sys_status)
+        bridge.on('BATTERY_STATUS', self._on_battery_status)
+
+    def _on_sys_status(self, status):
+        if self.has_battery_status or not self.pub.get_num_connections():
+            return
+        voltage = status.voltage_battery / 1000.0 if status.voltage_battery != UINT16_UNKNOWN else math.nan
+        self.pub.publish(_battery(self.bridge.now(), voltage, status.current_battery, status.battery_remaining))
+
+    def _on_battery_status(self, bs):
+        if bs.id != 0:
+            return
+        self.has_battery_status = True
+        if not self.pub.get_num_connections():
+            return
+        cells = [v / 1000.0 for v in bs.voltages if v != UINT16_UNKNOWN]
+        msg = _battery(self.bridge.now(), sum(cells) if cells else math.nan, bs.current_battery, bs.battery_remaining)
+        msg.cell_voltage = cells
+        msg.temperature = bs.temperature / 100.0 if bs.temperature != INT16_UNKNOWN else math.nan
+        msg.power_supply_technology = TECHNOLOGY.get(bs.type, BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN)
+        msg.location = 'id%d' % bs.id
+        self.pub.publish(msg)
