@@ -2,7 +2,8 @@
 
 ROS 1 checks the md5 sum of a type on every connection, so a bag or node built with
 real mavros_msgs interoperates only if ours hash the same. The expected sums are the
-upstream ones (../shared/reference/mavros-api.md). Both the definition files
+upstream ones (../shared/reference/mavros-api.md and, for mavros_msgs 1.21,
+../shared/reference/mavros_msgs-1.21-md5.tsv). Both the definition files
 (through genmsg, as catkin does) and the generated Python classes are checked.
 """
 
@@ -33,9 +34,25 @@ EXPECTED = {
     'mavros_msgs/ParamSet': 'c423cafb898fff374cbe8530ecd4d285',
     'mavros_msgs/WaypointPush': '96690cb0f07ea4a54cdd6f188e10228e',
     'mavros_msgs/WaypointClear': '358e233cde0c8a8bcfea4ce193f8fc15',
+    'mavros_msgs/Mavlink': '41093e1fd0f3eea1da2aa33a177e5ba6',
+    'mavros_msgs/StatusText': '6cfd33cd09e4abf5841d7be3c770a969',
+    'mavros_msgs/VFR_HUD': '1f55e210c3d39fe105d44d8dc963655f',
+    'mavros_msgs/RCIn': '1c3eafdb5efbcda3c334e1788bbcfe39',
+    'mavros_msgs/EstimatorStatus': '39dbcc4be3f04b68422f784827c47dd5',
+    'mavros_msgs/AttitudeTarget': '456f3af666b22ccd0222ea053a86b548',
+    'mavros_msgs/GlobalPositionTarget': '076ded0190b9e045f9c55264659ef102',
+    'mavros_msgs/Thrust': 'c61da3a8868a8b502eaf0b0abd839f57',
+    'mavros_msgs/TimesyncStatus': '021ec8044e747bea518b441f374ba64b',
+    'mavros_msgs/CommandLong': 'eb9034afc87577c0a235d45b8f3437d2',
+    'mavros_msgs/CommandInt': '5d5fd287bf3d27ad6ec508b1692f3b09',
+    'mavros_msgs/MessageInterval': '99e633e185b7ee6b477bc9843a87b5ae',
+    'mavros_msgs/StreamRate': 'd12f7661724c8ba25f67ba597bb7d039',
+    'mavros_msgs/ParamPush': 'd3fc4d8cefa193382985a92a041a2a3d',
+    'mavros_msgs/WaypointSetCurrent': 'f99aa1a911a80ab546ea470f4e90c807',
     'geographic_msgs/GeoPoint': 'c48027a852aeff972be80478ff38e81a',
 }
-SERVICES = {'CommandBool', 'SetMode', 'CommandTOL', 'ParamGet', 'ParamSet', 'WaypointPush', 'WaypointClear'}
+SERVICES = {'CommandBool', 'SetMode', 'CommandTOL', 'ParamGet', 'ParamSet', 'WaypointPush', 'WaypointClear',
+            'CommandLong', 'CommandInt', 'MessageInterval', 'StreamRate', 'ParamPush', 'WaypointSetCurrent'}
 
 
 def _search_path():
