@@ -123,6 +123,7 @@ class MavlinkLink:
         self.mav.robust_parsing = True
         self.handlers = {}
         self._wanted_ids = set()  # the message ids some handler reads: only these are decoded
+        self._last_seq = {}       # (system, component) -> the last sequence number received
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
         self.stats = collections.Counter()
         self.last_receive_s = None
@@ -239,6 +240,7 @@ class MavlinkLink:
             elif not decode_all and msg_id not in wanted:
                 if wire.crc_ok(msg_id, frame):
                     undecoded += 1
+                    self._count_sequence(frame)
                 else:
                     bad += 1
             else:
@@ -246,6 +248,8 @@ class MavlinkLink:
                     messages.append(self.mav.decode(bytearray(frame)))
                 except Exception:  # pymavlink raises assorted errors on hostile bytes
                     bad += 1
+                else:
+                    self._count_sequence(frame)
         if bad:
             self.stats['bad_frames'] += bad
         if not messages and not undecoded:
@@ -260,6 +264,17 @@ class MavlinkLink:
         for msg in messages:
             for handler in self.handlers.get(msg.get_type(), ()):
                 self._call(handler, msg)
+
+    def _count_sequence(self, frame):
+        """Count the frames a sender's sequence numbers say were lost (`dropped`), per sender."""
+        if frame[0] == wire.MAGIC_V2:
+            seq, sender = frame[4], (frame[5], frame[6])
+        else:
+            seq, sender = frame[2], (frame[3], frame[4])
+        last = self._last_seq.get(sender)
+        if last is not None:
+            self.stats['dropped'] += (seq - last - 1) & 0xFF
+        self._last_seq[sender] = seq
 
     def _move_remote(self, sender):
         """Answer `sender` from now on, and say so as mavconn does ("udp0: Remote address: ...");

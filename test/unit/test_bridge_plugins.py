@@ -7,6 +7,7 @@ the FakeFcu, which may answer at once from a per-message-type script. Topics, se
 and subscriptions live in FakeRos; time in FakeClock, moved by the test.
 """
 
+import collections
 import math
 import struct
 import threading
@@ -38,6 +39,7 @@ class FakeLink:
     def __init__(self):
         self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_UDP_BRIDGE)
         self.handlers = {}
+        self.stats = collections.Counter()
         self.fcu = None
         self._lock = threading.Lock()
 
@@ -180,7 +182,7 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~global_position/raw/fix', '~global_position/raw/gps_vel', '~global_position/raw/satellites',
         '~altitude', '~imu/data', '~imu/data_raw', '~imu/mag', '~imu/static_pressure', '~imu/temperature_imu',
         '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
-        '~setpoint_raw/target_local'}
+        '~setpoint_raw/target_local', '/diagnostics'}
     assert '/tf' in Rig(*node.PLUGINS, local_position__tf__send=True).ros.topics, 'tf/send adds /tf'
     assert {name for name, pub in topics.items() if pub.latch} == {'~state', '~home_position/home',
                                                                    '~mission/waypoints'}
@@ -678,3 +680,23 @@ def test_cmd_vel_goes_out_as_velocity_and_yaw_rate_and_target_local_comes_back_e
     target = rig.published('~setpoint_raw/target_local')[-1]
     assert (target.position.x, target.position.y, target.position.z) == (2.0, 1.0, 3.0)
     assert target.yaw == pytest.approx(math.pi / 2) and target.type_mask == 0x9F8
+
+
+def test_diagnostics_say_what_mavros_says():
+    from offboard_py.bridge import diagnostics
+    rig = Rig(sys_status.SysStatus, global_position.GlobalPosition, diagnostics.Diagnostics)
+    rig.bridge.run_periodic(rig.clock.now_s + 1.0)
+    [array] = rig.published('/diagnostics')
+    by_name = {s.name: s for s in array.status}
+    assert set(by_name) == {'mavros: FCU connection', 'mavros: Heartbeat', 'mavros: GPS'}
+    assert (by_name['mavros: GPS'].level, by_name['mavros: GPS'].message) == (2, 'No satellites')
+    assert by_name['mavros: FCU connection'].message == 'not connected'
+    rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED))
+    rig.fcu.send(BUILD.gps_raw_int_encode(1000000, 3, 473977420, 85455940, 488000, 70, 110, 0, 0, 10))
+    rig.bridge.run_periodic(rig.clock.now_s + 2.0)
+    by_name = {s.name: s for s in rig.published('/diagnostics')[-1].status}
+    gps = by_name['mavros: GPS']
+    assert (gps.level, gps.message) == (0, '3D fix')
+    assert {kv.key: kv.value for kv in gps.values}['EPH (m)'] == '0.70'
+    assert (by_name['mavros: FCU connection'].level, by_name['mavros: Heartbeat'].level) == (0, 0)
+    assert {kv.key: kv.value for kv in by_name['mavros: Heartbeat'].values}['Vehicle type'] == 'MAV_TYPE_QUADROTOR'

@@ -138,3 +138,10 @@ def test_link_counts_bad_frames_and_junk_moves_nothing(link):
     unknown[7:10] = struct.pack('<I', 70000)[:3]  # an id the dialect lacks, CRC now wrong too
     link.handle_datagram(bytes(unknown), ('127.0.0.1', 9999))
     assert link.stats['bad_frames'] == 3 and link.remote is None
+
+
+def test_link_counts_frames_lost_by_their_sequence_numbers(link):
+    link.handle_datagram(frame(HB, seq=254) + frame(ATT, seq=255) + frame(ATT, seq=2), ('127.0.0.1', 14580))
+    assert link.stats['dropped'] == 2, '0 and 1 are missing (the counter wraps at 256)'
+    link.handle_datagram(frame(HB, seq=7, system_id=42), ('127.0.0.1', 14580))
+    assert link.stats['dropped'] == 2, 'another sender has its own sequence'

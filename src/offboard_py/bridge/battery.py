@@ -39,26 +39,38 @@ class Battery:
     def __init__(self, bridge):
         self.bridge = bridge
         self.has_battery_status = False
+        self.last = None  # (voltage V, current A, remaining 0..1) of the latest message
+        bridge.diagnostic('Battery', self._status)
         self.pub = bridge.publisher('~battery', BatteryState)
         bridge.on('SYS_STATUS', self._on_sys_status)
         bridge.on('BATTERY_STATUS', self._on_battery_status)
 
+    def _status(self):
+        if self.last is None:
+            return 2, 'No data', []
+        voltage, current, remaining = self.last
+        values = [('Voltage', '%.2f' % voltage), ('Current', '%.1f' % current), ('Remaining', '%.1f' % (remaining * 100))]
+        return (1, 'Low voltage', values) if remaining == remaining and remaining < 0.15 else (0, 'Normal', values)
+
     def _on_sys_status(self, status):
-        if self.has_battery_status or not self.pub.get_num_connections():
+        if self.has_battery_status:
             return
         voltage = status.voltage_battery / 1000.0 if status.voltage_battery != UINT16_UNKNOWN else math.nan
-        self.pub.publish(_battery(self.bridge.now(), voltage, status.current_battery, status.battery_remaining))
+        msg = _battery(self.bridge.now(), voltage, status.current_battery, status.battery_remaining)
+        self.last = (msg.voltage, msg.current, msg.percentage)
+        if self.pub.get_num_connections():
+            self.pub.publish(msg)
 
     def _on_battery_status(self, bs):
         if bs.id != 0:
             return
         self.has_battery_status = True
-        if not self.pub.get_num_connections():
-            return
         cells = [v / 1000.0 for v in bs.voltages if v != UINT16_UNKNOWN]
         msg = _battery(self.bridge.now(), sum(cells) if cells else math.nan, bs.current_battery, bs.battery_remaining)
         msg.cell_voltage = cells
         msg.temperature = bs.temperature / 100.0 if bs.temperature != INT16_UNKNOWN else math.nan
         msg.power_supply_technology = TECHNOLOGY.get(bs.type, BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN)
         msg.location = 'id%d' % bs.id
-        self.pub.publish(msg)
+        self.last = (msg.voltage, msg.current, msg.percentage)
+        if self.pub.get_num_connections():
+            self.pub.publish(msg)

@@ -6,7 +6,8 @@ A plugin is a class built with the Bridge and using only this interface:
 - ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
   to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
-- time and connection: `monotonic_s()`, `every`, `after_connect`, `on_connection`, `connected`.
+- time and connection: `monotonic_s()`, `every`, `after_connect`, `on_connection`, `connected`;
+- `diagnostic(name, status)`: status() -> (level, message, [(key, value)]) for /diagnostics.
 One thread receives MAVLink and runs the handlers and the periodic work (`start()`); service
 calls run in other threads and wait on events that thread sets. This module opens no
 socket and reads no ROS parameter: node.py does that.
@@ -42,6 +43,7 @@ class Bridge:
         self._connection_listeners = []
         self.attitude = Attitude()
         self.clock_offset = None  # the sys_time plugin, when loaded: stamp_ns(fcu_ns)
+        self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         # registered before any plugin's handler, so readers see this message's attitude
         self.on('ATTITUDE_QUATERNION', self.attitude.update)
         self.plugins = [plugin(self) for plugin in plugins]
@@ -115,6 +117,18 @@ class Bridge:
                     task[2](now_s)
                 except Exception:  # a plugin bug must not stop the link
                     rospy.logerr('periodic task %r failed', task[2], exc_info=True)
+
+    def diagnostic(self, name, status):
+        """Add a status to /diagnostics ("mavros: <name>"): status() -> (level, message, [(key, value)]),
+        level a diagnostic_msgs/DiagnosticStatus level."""
+        self.diagnostics.append((name, status))
+
+    def _connection_status(self):
+        stats = self.link.stats
+        values = [('Received packets:', stats['received']), ('Dropped packets:', stats['dropped']),
+                  ('Parse errors:', stats['bad_frames']), ('Sent packets:', stats['sent']),
+                  ('Send errors:', stats['send_errors']), ('Tx sequence number:', self.link.mav.seq)]
+        return (0, 'connected', values) if self.connected else (2, 'not connected', values)
 
     def on_connection(self, callback):
         """callback(connected) on every change of the FCU connection."""

@@ -59,6 +59,21 @@ class GlobalPosition:
         self.raw_sat_pub = bridge.publisher('~global_position/raw/satellites', UInt32)
         bridge.on('GLOBAL_POSITION_INT', self._on_global_position)
         bridge.on('GPS_RAW_INT', self._on_gps_raw)
+        bridge.diagnostic('GPS', self._gps_status)
+
+    def _gps_status(self):
+        """As mavros's GPS diagnostics: no fix is an error ("No satellites"), 2D a warning."""
+        gps = self.gps
+        if gps is None:
+            return 2, 'No satellites', [('Satellites visible', 0), ('Fix type', 0)]
+        values = [('Satellites visible', gps.satellites_visible), ('Fix type', gps.fix_type),
+                  ('EPH (m)', 'Unknown' if gps.eph == UINT16_UNKNOWN else '%.2f' % (gps.eph * 1e-2)),
+                  ('EPV (m)', 'Unknown' if gps.epv == UINT16_UNKNOWN else '%.2f' % (gps.epv * 1e-2))]
+        if gps.fix_type < FIX_2D:
+            return 2, 'No satellites', values
+        if gps.fix_type == FIX_2D:
+            return 1, '2D fix', values
+        return 0, '3D fix', values
 
     def _on_gps_raw(self, gps):
         self.gps = gps

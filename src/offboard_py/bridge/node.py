@@ -14,12 +14,12 @@ from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
 from offboard_py.mavlink_link import MavlinkLink, UrlError
-from offboard_py.bridge import (altitude, battery, command, global_position, home_position, imu,
+from offboard_py.bridge import (altitude, battery, command, diagnostics, global_position, home_position, imu,
                                 local_position, mission, param, setpoint, sys_status, sys_time)
 
 PLUGINS = (sys_status.SysStatus, sys_time.SysTime, command.Command, setpoint.Setpoint, local_position.LocalPosition,
            global_position.GlobalPosition, altitude.Altitude, imu.Imu, home_position.HomePosition,
-           param.Param, mission.Mission, battery.Battery)
+           param.Param, mission.Mission, battery.Battery, diagnostics.Diagnostics)
 
 
 class RospyEndpoints:

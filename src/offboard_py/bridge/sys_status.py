@@ -9,6 +9,8 @@
 - On connection, AUTOPILOT_VERSION is asked for (as mavros does).
 """
 
+import collections
+
 import rospy
 from mavros_msgs.msg import ExtendedState, State
 from mavros_msgs.srv import SetMode, SetModeResponse
@@ -36,6 +38,10 @@ class SysStatus:
         self.timeout_s = bridge.cfg['conn/timeout']
         self.last_heartbeat_s = None
         self.base_mode = 0
+        self.heartbeats = 0
+        self.last_heartbeat = None
+        self.recent_s = collections.deque(maxlen=10)  # arrival times, for the frequency
+        bridge.diagnostic('Heartbeat', self._heartbeat_status)
         self.state_pub = bridge.publisher('~state', State, latch=True)
         self.extended_pub = bridge.publisher('~extended_state', ExtendedState)
         self.set_mode_srv = bridge.service('~set_mode', SetMode, self._set_mode)
@@ -58,6 +64,9 @@ class SysStatus:
     def _on_heartbeat(self, hb):
         b = self.bridge
         self.last_heartbeat_s = b.monotonic_s()
+        self.heartbeats += 1
+        self.last_heartbeat = hb
+        self.recent_s.append(self.last_heartbeat_s)
         self.base_mode = hb.base_mode
         msg = State()
         msg.header.stamp = b.now()
@@ -73,6 +82,24 @@ class SysStatus:
                                              mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0, 1, 0, 0, 0, 0, 0, 0))
         b.set_connected(True)
         self.state_pub.publish(msg)
+
+    def _heartbeat_status(self):
+        hb = self.last_heartbeat
+        if hb is None:
+            return 2, 'No events recorded.', [('Heartbeats since startup', 0)]
+        recent = list(self.recent_s)
+        frequency = (len(recent) - 1) / (recent[-1] - recent[0]) if len(recent) > 1 and recent[-1] > recent[0] else 0.0
+        values = [('Heartbeats since startup', self.heartbeats), ('Frequency (Hz)', '%.6f' % frequency),
+                  ('Vehicle type', mavlink.enums['MAV_TYPE'][hb.type].name if hb.type in mavlink.enums['MAV_TYPE']
+                   else hb.type),
+                  ('Autopilot type', mavlink.enums['MAV_AUTOPILOT'][hb.autopilot].name
+                   if hb.autopilot in mavlink.enums['MAV_AUTOPILOT'] else hb.autopilot),
+                  ('Mode', px4_modes.mode_string(hb.base_mode, hb.custom_mode)),
+                  ('System status', mavlink.enums['MAV_STATE'][hb.system_status].name
+                   if hb.system_status in mavlink.enums['MAV_STATE'] else hb.system_status)]
+        if not self.bridge.connected:
+            return 2, 'No events recorded.', values
+        return 0, 'Normal', values
 
     def _check_timeout(self, now_s):
         if self.bridge.connected and now_s - self.last_heartbeat_s > self.timeout_s:

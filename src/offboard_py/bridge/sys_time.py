@@ -99,6 +99,8 @@ class SysTime:
         self.time_ref_pub = bridge.publisher('~time_reference', TimeReference)
         bridge.on('SYSTEM_TIME', self._on_system_time)
         bridge.on('TIMESYNC', self._on_timesync)
+        self.answers, self.last_rtt_ns, self.rtt_sum_ns = 0, None, 0
+        bridge.diagnostic('Time Sync', self._status)
         rate = cfg['conn/timesync_rate']
         if self.mode == 'MAVLINK' and rate > 0.0:
             bridge.every(1.0 / rate, self._request)
@@ -124,9 +126,25 @@ class SysTime:
             self.bridge.send(self.bridge.mav.timesync_encode(now_ns, msg.ts1))
         elif msg.tc1 > 0 and self.mode == 'MAVLINK':
             offset = (msg.ts1 + now_ns - 2 * msg.tc1) // 2
-            warning = self.filter.observe(offset, now_ns - msg.ts1)
+            rtt = now_ns - msg.ts1
+            if 0 <= rtt:
+                self.answers, self.last_rtt_ns = self.answers + 1, rtt
+                self.rtt_sum_ns += rtt
+            warning = self.filter.observe(offset, rtt)
             if warning:
                 log.warning('%s', warning)
+
+    def _status(self):
+        f = self.filter
+        values = [('Timesyncs since startup', self.answers), ('Filter samples', f.sequence),
+                  ('Last RTT (ms)', '%.6f' % (self.last_rtt_ns / 1e6) if self.last_rtt_ns is not None else 'none'),
+                  ('Mean RTT (ms)', '%.6f' % (self.rtt_sum_ns / self.answers / 1e6) if self.answers else 'none'),
+                  ('Estimated time offset (s)', '%.9f' % (f.estimate_ns / 1e9))]
+        if self.mode != 'MAVLINK':
+            return 0, 'timesync mode %s' % self.mode, values
+        if not self.answers:
+            return 2, 'No events recorded.', values
+        return (0, 'Normal', values) if f.converged else (1, 'Converging', values)
 
     def _on_system_time(self, msg):
         if msg.time_unix_usec <= UNIX_VALID_AFTER_US or not self.time_ref_pub.get_num_connections():
