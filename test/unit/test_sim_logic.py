@@ -222,3 +222,75 @@ def test_force_disarm_magic_in_the_air():
     assert f.request_arming(False, False, t) == DENIED
     assert f.request_arming(False, True, t) == ACCEPTED and not f.commander.armed
     assert ARM_DISARM_FORCE_MAGIC == 21196
+
+
+# -- PX4's flight model (issue 13): the pieces the flight fit (test/sim/test_flight_fit.py) rests on ---------
+
+def test_land_speeds_are_px4s():
+    from offboard_py.sim.navigator import land_speed
+    p = ParamStore()
+    assert land_speed(p, 20.0) == p['MPC_Z_V_AUTO_DN'] == 1.5
+    assert land_speed(p, 7.5) == pytest.approx((1.5 + 0.7) / 2), 'blends between MPC_LAND_ALT1 and ALT2'
+    assert land_speed(p, 3.0) == p['MPC_LAND_SPEED'] == 0.7
+    assert land_speed(p, 0.5) == p['MPC_LAND_CRWL'] == 0.3, 'crawl below MPC_LAND_ALT3'
+
+
+def test_rtl_return_altitude_with_the_cone():
+    from offboard_py.sim.navigator import rtl_return_height
+    p = ParamStore()
+    assert rtl_return_height(p, 100.0) == 30.0, 'RTL_RETURN_ALT beyond RTL_MIN_DIST'
+    assert rtl_return_height(p, 6.0) == pytest.approx(6.0), 'inside RTL_MIN_DIST: the 45 deg cone'
+    assert rtl_return_height(p, 3.0) == pytest.approx(4.0), 'at least 2 NAV_ACC_RAD outside the acceptance radius'
+    assert rtl_return_height(p, 1.0) == pytest.approx(2.0), 'inside it: 2 x the distance'
+    assert rtl_return_height(ParamStore({'RTL_CONE_ANG': 0}), 6.0) == 30.0, 'no cone'
+
+
+def test_trajectory_brakes_early_and_passes_corners_at_px4s_speed():
+    from offboard_py.sim.trajectory import corner_speed, speed_from_distance
+    p = ParamStore()
+    # PX4's computeMaxSpeedFromDistance with MPC_JERK_AUTO 4, MPC_ACC_HOR 3: slow over the last metres
+    assert speed_from_distance(4.0, 3.0, 2.0, 0.0) == pytest.approx(1.18, abs=0.01)
+    assert speed_from_distance(4.0, 3.0, 0.0, 1.0) == 1.0
+    right_angle = corner_speed(p, (0.0, 0.0, -10.0), (15.0, 0.0, -10.0), (15.0, -19.0, -10.0))
+    assert right_angle == pytest.approx(math.sqrt(3.0 * 0.5 * 2.0), abs=0.01)
+    assert corner_speed(p, (0.0, 0.0, 0.0), (10.0, 0.0, 0.0), (20.0, 0.0, 0.0)) == p['MPC_XY_CRUISE']
+    assert corner_speed(p, (0.0, 0.0, 0.0), (10.0, 0.0, 0.0), None) == 0.0
+
+
+def test_takeoff_completes_nav_mc_alt_rad_short_and_loiters_at_the_takeoff_altitude():
+    f = make()
+    f.request_arming(True, False, 0.0)
+    f.takeoff(NAN, 500.0, 0.0)
+    t = 0.0
+    while f.commander.nav_mode == 'AUTO.TAKEOFF' and t < 20.0:
+        t = fly(f, t, 0.01)
+    height = f.vehicle.height()
+    assert 2.5 - f.params['NAV_MC_ALT_RAD'] - 0.05 <= height <= 2.5 - f.params['NAV_MC_ALT_RAD'] + 0.1
+    fly(f, t, 8.0)
+    assert f.vehicle.height() == pytest.approx(2.5, abs=0.15), 'AUTO.LOITER holds the takeoff altitude'
+
+
+def test_takeoff_leaves_the_ground_after_spool_up_and_ramp():
+    """COM_SPOOLUP_TIME 1 s, then MPC_TKO_RAMP_T from zero thrust: off the ground about 2-3 s after arming."""
+    f = make()
+    f.on_offboard_setpoint(position_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = 0.0
+    while f.vehicle.ground_contact and t < 10.0:
+        t = fly(f, t, 0.01, position_setpoint())
+    assert 2.0 <= t <= 3.5
+
+
+def test_drag_holds_a_long_leg_near_ten_metres_a_second():
+    """SIH's linear drag against the 45 deg tilt limit: below MPC_XY_VEL_MAX 12, as PX4's 10.1 m/s."""
+    f = make()
+    f.on_offboard_setpoint(position_setpoint(d=-20.0), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = fly(f, 0.0, 20.0, position_setpoint(d=-20.0))
+    peak = 0.0
+    for _ in range(150):
+        t = fly(f, t, 0.1, position_setpoint(n=300.0, d=-20.0))
+        peak = max(peak, math.hypot(*f.vehicle.velocity[:2]))
+    assert 9.5 <= peak <= 11.0

@@ -212,3 +212,24 @@ def test_autopilot_version_is_px4_s():
     assert (msg.vendor_id, msg.product_id) == (0, 0)
     assert msg.uid > 0xFFFFFFFF and msg.uid & 0xFF == 3, '64 bits, one per system id'
     assert not msg.capabilities & M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+
+
+def test_altitude_is_never_nan_and_home_is_set_again_at_arming():
+    f = make()
+    b = builder(f)
+    home_before = b.build('HOME_POSITION', f.status(1.0), 1.0)
+    t = fly(f, 0.0, 1.0)
+    f.on_offboard_setpoint(hover_setpoint(), t)
+    f.request_mode('OFFBOARD', t)
+    f.request_arming(True, False, t)
+    home_armed = b.build('HOME_POSITION', f.status(t), t)
+    assert (home_armed.x, home_armed.y, home_armed.z) != (home_before.x, home_before.y, home_before.z)
+    assert home_armed.z == pytest.approx(0.17, abs=0.05), 'home where PX4 reads the ground: z 0.17 m'
+    for seconds in (0.5, 6.0, 10.0):
+        t = fly(f, t, seconds, hover_setpoint())
+        altitude = b.build('ALTITUDE', f.status(t), t)
+        values = (altitude.altitude_monotonic, altitude.altitude_amsl, altitude.altitude_local,
+                  altitude.altitude_relative, altitude.altitude_terrain, altitude.bottom_clearance)
+        assert all(math.isfinite(v) for v in values), values
+    assert altitude.altitude_relative == pytest.approx(2.17, abs=0.15), 'above home (the ground)'
+    assert altitude.altitude_local == pytest.approx(2.0, abs=0.15)
