@@ -7,10 +7,14 @@ import time
 
 import rospy
 import rostest
-from geometry_msgs.msg import PoseStamped, Quaternion
+from geometry_msgs.msg import PoseStamped, Quaternion, TwistStamped
 from mavros_msgs.msg import Altitude, HomePosition, PositionTarget, Waypoint, WaypointList
-from mavros_msgs.srv import ParamGet, ParamPull, ParamSet, ParamSetRequest, WaypointClear, WaypointPush
-from sensor_msgs.msg import Imu, NavSatFix
+from mavros_msgs.srv import (CommandInt, CommandLong, MessageInterval, ParamGet, ParamPull, ParamPush, ParamSet,
+                             ParamSetRequest, StreamRate, WaypointClear, WaypointPush, WaypointSetCurrent)
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import BatteryState, FluidPressure, Imu, MagneticField, NavSatFix, Temperature, TimeReference
+from std_msgs.msg import Float64, UInt32
+from tf2_msgs.msg import TFMessage
 
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
@@ -233,8 +237,49 @@ class BridgeTest(OffboardTestCase):
         self.assertEqual(res.wp_transfered, 3)
         self.wait_until(lambda: len(lists[-1].waypoints) == 3, 5.0, 'mission/waypoints with 3 items')
         self.assertAlmostEqual(lists[-1].waypoints[1].x_lat, 47.3979, places=6)
+        # mission/set_current: the FCU answers with MISSION_CURRENT, and the list follows it
+        res = rospy.ServiceProxy('mavros/mission/set_current', WaypointSetCurrent)(wp_seq=2)
+        self.assertTrue(res.success, 'mission/set_current 2')
+        self.wait_until(lambda: lists[-1].current_seq == 2, 5.0, 'mission/waypoints with current_seq 2')
         self.assertTrue(rospy.ServiceProxy('mavros/mission/clear', WaypointClear)().success)
         self.wait_until(lambda: len(lists[-1].waypoints) == 0, 5.0, 'an empty mission/waypoints after clear')
+
+    def test_08b_command_services_against_the_fcu(self):
+        self.wait_for_connected(self.sim, 15.0)
+        for name in ('cmd/command', 'cmd/command_int', 'set_message_interval', 'set_stream_rate', 'param/push'):
+            rospy.wait_for_service('mavros/' + name, 5.0)
+        # cmd/command: PX4 answers REQUEST_MESSAGE(AUTOPILOT_VERSION) with ACK 0, an unknown id with DENIED
+        command = rospy.ServiceProxy('mavros/cmd/command', CommandLong)
+        res = command(command=mavlink.MAV_CMD_REQUEST_MESSAGE, param1=mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        self.assertEqual((res.success, res.result), (True, mavlink.MAV_RESULT_ACCEPTED))
+        res = command(command=mavlink.MAV_CMD_REQUEST_MESSAGE, param1=9999)
+        self.assertEqual((res.success, res.result), (False, mavlink.MAV_RESULT_DENIED))
+        # cmd/command_int: sent, no ACK awaited (mavros 1.x)
+        res = rospy.ServiceProxy('mavros/cmd/command_int', CommandInt)(
+            frame=mavlink.MAV_FRAME_GLOBAL_INT, command=mavlink.MAV_CMD_REQUEST_MESSAGE,
+            param1=mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        self.assertTrue(res.success)
+        # set_message_interval: HOME_POSITION (0.5 Hz on PX4's onboard link) at 5 Hz, then back to the default
+        homes = []
+        sub = rospy.Subscriber('mavros/home_position/home', HomePosition, lambda m: homes.append(time.monotonic()))
+        try:
+            interval = rospy.ServiceProxy('mavros/set_message_interval', MessageInterval)
+            self.assertTrue(interval(message_id=mavlink.MAVLINK_MSG_ID_HOME_POSITION, message_rate=5.0).success)
+            time.sleep(0.5)
+            start = time.monotonic()
+            time.sleep(3.0)
+            rate = len([t for t in homes if t > start]) / 3.0
+            self.assertTrue(interval(message_id=mavlink.MAVLINK_MSG_ID_HOME_POSITION, message_rate=0.0).success)
+        finally:
+            sub.unregister()
+        self.assertGreaterEqual(rate, 3.5, 'home_position/home at %.1f Hz after asking for 5 Hz' % rate)
+        rospy.ServiceProxy('mavros/set_stream_rate', StreamRate)(stream_id=0, message_rate=10, on_off=True)
+        # param/push: the ROS parameters under ~param, set on the FCU where they differ
+        rospy.set_param('mavros/param', {'MPC_XY_CRUISE': 6.0, 'MPC_XY_VEL_MAX': 12.0})
+        res = rospy.ServiceProxy('mavros/param/push', ParamPush)()
+        self.assertEqual((res.success, res.param_transfered), (True, 1))
+        got = rospy.ServiceProxy('mavros/param/get', ParamGet)(param_id='MPC_XY_CRUISE')
+        self.assertAlmostEqual(got.value.real, 6.0, places=5)
 
     def test_09_home_global_imu_populated(self):
         self.wait_for_connected(self.sim, 15.0)
@@ -302,10 +347,6 @@ class BridgeTest(OffboardTestCase):
         POSITION_TARGET_LOCAL_NED 10 Hz, GPS_RAW_INT 8 Hz, SYSTEM_TIME 1 Hz, BATTERY_STATUS 0.5 Hz).
         raw/gps_vel is left out: on the ground GPS_RAW_INT has no course, and mavros then
         publishes none (a unit test holds the moving case)."""
-        from nav_msgs.msg import Odometry
-        from sensor_msgs.msg import BatteryState, FluidPressure, MagneticField, Temperature, TimeReference
-        from std_msgs.msg import Float64, UInt32
-        from tf2_msgs.msg import TFMessage
         expected = {  # topic: (type, FCU rate in Hz)
             'global_position/local': (Odometry, 50), 'global_position/rel_alt': (Float64, 50),
             'global_position/compass_hdg': (Float64, 50), 'global_position/raw/fix': (NavSatFix, 8),

@@ -97,6 +97,10 @@ class FakePublisher:
 class FakeRos:
     def __init__(self):
         self.topics, self.services, self.subscriptions = {}, {}, {}
+        self.params = {}
+
+    def get_param(self, name, default):
+        return self.params.get(name, default)
 
     def publisher(self, name, _data_class, queue_size, latch):
         self.topics[name] = FakePublisher(latch, queue_size)
@@ -170,8 +174,9 @@ def wait_until(condition, timeout_s=2.0):
 def test_all_plugins_offer_mavros_names_latching_and_queues():
     rig = Rig(*node.PLUGINS)
     assert set(rig.ros.services) == {
-        '~set_mode', '~cmd/arming', '~cmd/takeoff', '~cmd/land', '~param/pull', '~param/get', '~param/set',
-        '~mission/push', '~mission/pull', '~mission/clear'}
+        '~set_mode', '~cmd/arming', '~cmd/takeoff', '~cmd/land', '~cmd/command', '~cmd/command_int',
+        '~set_message_interval', '~set_stream_rate', '~param/pull', '~param/get', '~param/set', '~param/push',
+        '~mission/push', '~mission/pull', '~mission/clear', '~mission/set_current'}
     assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local',
                                           '~setpoint_velocity/cmd_vel', '~setpoint_velocity/cmd_vel_unstamped'}
     topics = rig.ros.topics
@@ -700,3 +705,72 @@ def test_diagnostics_say_what_mavros_says():
     assert {kv.key: kv.value for kv in gps.values}['EPH (m)'] == '0.70'
     assert (by_name['mavros: FCU connection'].level, by_name['mavros: Heartbeat'].level) == (0, 0)
     assert {kv.key: kv.value for kv in by_name['mavros: Heartbeat'].values}['Vehicle type'] == 'MAV_TYPE_QUADROTOR'
+
+
+
+# -- services: cmd/command, command_int, set_message_interval, set_stream_rate, param/push, set_current
+
+def ack(m, result=mavlink.MAV_RESULT_ACCEPTED):
+    return [BUILD.command_ack_encode(m.command, result)]
+
+
+def test_cmd_command_waits_for_the_ack_unless_broadcast():
+    from mavros_msgs.srv import CommandLongRequest
+    rig = Rig(command.Command)
+    rig.fcu.answers['COMMAND_LONG'] = lambda m: ack(m, mavlink.MAV_RESULT_DENIED) if m.target_system else []
+    res = rig.call('~cmd/command', CommandLongRequest(command=mavlink.MAV_CMD_REQUEST_MESSAGE, param1=148.0))
+    assert (res.success, res.result) == (False, mavlink.MAV_RESULT_DENIED)
+    [sent] = rig.fcu.got('COMMAND_LONG')
+    assert (sent.target_system, sent.command, sent.param1, sent.confirmation) == (1, 512, 148.0, 0)
+    res = rig.call('~cmd/command', CommandLongRequest(broadcast=True, command=mavlink.MAV_CMD_REQUEST_MESSAGE))
+    assert res.success and rig.fcu.got('COMMAND_LONG')[-1].target_system == 0
+
+
+def test_cmd_command_int_sends_and_does_not_wait():
+    from mavros_msgs.srv import CommandIntRequest
+    rig = Rig(command.Command)
+    req = CommandIntRequest(frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command=mavlink.MAV_CMD_DO_REPOSITION,
+                            param1=-1.0, x=473977420, y=85455940, z=20.0)
+    assert rig.call('~cmd/command_int', req).success
+    [sent] = rig.fcu.got('COMMAND_INT')
+    assert (sent.command, sent.x, sent.y, sent.z, sent.frame) == (192, 473977420, 85455940, 20.0, 6)
+
+
+def test_set_message_interval_and_stream_rate():
+    from mavros_msgs.srv import MessageIntervalRequest, StreamRateRequest
+    rig = Rig(command.Command)
+    rig.fcu.answers['COMMAND_LONG'] = ack
+    assert rig.call('~set_message_interval', MessageIntervalRequest(message_id=30, message_rate=10.0)).success
+    assert rig.call('~set_message_interval', MessageIntervalRequest(message_id=30, message_rate=-1.0)).success
+    assert [(m.command, m.param1, m.param2) for m in rig.fcu.got('COMMAND_LONG')] == [
+        (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 30.0, 100000.0), (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 30.0, -1.0)]
+    rig.fcu.answers['COMMAND_LONG'] = lambda m: []
+    command_timeout = rig.plugin.timeout_s
+    rig.plugin.timeout_s = 0.05
+    assert not rig.call('~set_message_interval', MessageIntervalRequest(message_id=30, message_rate=1.0)).success
+    rig.plugin.timeout_s = command_timeout
+    rig.call('~set_stream_rate', StreamRateRequest(stream_id=0, message_rate=10, on_off=True))
+    [stream] = rig.fcu.got('REQUEST_DATA_STREAM')
+    assert (stream.req_stream_id, stream.req_message_rate, stream.start_stop) == (0, 10, 1)
+
+
+def test_param_push_sets_what_differs(monkeypatch):
+    from mavros_msgs.srv import ParamPushRequest
+    monkeypatch.setattr(param, 'READ_TIMEOUT_S', 0.05)
+    rig = Rig(param.Param)
+    rig.bridge.connected = True
+    rig.fcu.answers['PARAM_REQUEST_READ'] = answer_read
+    rig.fcu.answers['PARAM_SET'] = lambda m: [BUILD.param_value_encode(m.param_id.encode(), m.param_value,
+                                                                             m.param_type, len(PARAMS), 0)]
+    rig.ros.params['~param'] = {'MPC_XY_VEL_MAX': 12.0, 'COM_RCL_EXCEPT': 5, 'NO_SUCH_PARAM': 1.0}
+    res = rig.call('~param/push', ParamPushRequest())
+    assert (res.success, res.param_transfered) == (False, 1), 'one set, one unknown to the FCU'
+    assert [m.param_id for m in rig.fcu.got('PARAM_SET')] == ['COM_RCL_EXCEPT'], '12.0 is already there'
+
+
+def test_mission_set_current_waits_for_mission_current():
+    from mavros_msgs.srv import WaypointSetCurrentRequest
+    rig = Rig(mission.Mission)
+    rig.fcu.answers['MISSION_SET_CURRENT'] = lambda m: [BUILD.mission_current_encode(m.seq)]
+    assert rig.call('~mission/set_current', WaypointSetCurrentRequest(wp_seq=2)).success
+    assert rig.fcu.got('MISSION_SET_CURRENT')[0].seq == 2

@@ -1,15 +1,24 @@
-"""mavros command: ~cmd/arming (CommandBool), ~cmd/takeoff and ~cmd/land (CommandTOL).
+"""mavros command: ~cmd/arming (CommandBool), ~cmd/takeoff and ~cmd/land (CommandTOL),
+~cmd/command (CommandLong), ~cmd/command_int (CommandInt); and sys_status's
+~set_message_interval (MessageInterval) and ~set_stream_rate (StreamRate), which send commands.
 
-Each sends one COMMAND_LONG and waits for the matching COMMAND_ACK up to
-cmd/command_ack_timeout: success = ACCEPTED, result = the ACK's MAV_RESULT; no ACK gives
-success=false, result=MAV_RESULT_FAILED. A second call for a command that is still waiting
-fails as a service call, as in mavros. Different commands may wait at once.
+Each COMMAND_LONG waits for the matching COMMAND_ACK up to cmd/command_ack_timeout:
+success = ACCEPTED, result = the ACK's MAV_RESULT; no ACK gives success=false,
+result=MAV_RESULT_FAILED. A second call for a command that is still waiting fails as a
+service call, as in mavros. Different commands may wait at once. As in mavros 1.x:
+- cmd/command with broadcast=true goes to system 0 and waits for nothing (success=true);
+- cmd/command_int sends COMMAND_INT and waits for nothing (success=true once sent);
+- set_message_interval sends MAV_CMD_SET_MESSAGE_INTERVAL (rate > 0: 1e6/rate us, 0: the
+  default rate, < 0: off) and succeeds when the FCU answered (its result is in the log);
+- set_stream_rate sends the old REQUEST_DATA_STREAM (PX4 ignores it) and answers nothing.
 """
 
 import threading
 
 import rospy
-from mavros_msgs.srv import CommandBool, CommandBoolResponse, CommandTOL, CommandTOLResponse
+from mavros_msgs.srv import (CommandBool, CommandBoolResponse, CommandInt, CommandIntResponse, CommandLong,
+                             CommandLongResponse, CommandTOL, CommandTOLResponse, MessageInterval,
+                             MessageIntervalResponse, StreamRate, StreamRateResponse)
 
 from offboard_py.dialect import mavlink
 
@@ -57,15 +66,19 @@ class Command:
             bridge.service('~cmd/arming', CommandBool, self._arming),
             bridge.service('~cmd/takeoff', CommandTOL, self._takeoff),
             bridge.service('~cmd/land', CommandTOL, self._land),
+            bridge.service('~cmd/command', CommandLong, self._command),
+            bridge.service('~cmd/command_int', CommandInt, self._command_int),
+            bridge.service('~set_message_interval', MessageInterval, self._set_message_interval),
+            bridge.service('~set_stream_rate', StreamRate, self._set_stream_rate),
         ]
 
-    def command_long(self, cmd, params):
+    def command_long(self, cmd, params, confirmation=CONFIRMATION):
         """Send COMMAND_LONG and wait for its ACK: (success, MAV_RESULT); Busy if already waiting."""
         b = self.bridge
         entry = self.waiter.begin(cmd)
         try:
             params = list(params) + [0.0] * (7 - len(params))
-            b.send(b.mav.command_long_encode(b.target_system, b.target_component, cmd, CONFIRMATION, *params))
+            b.send(b.mav.command_long_encode(b.target_system, b.target_component, cmd, confirmation, *params))
             if not entry[0].wait(self.timeout_s):
                 rospy.logwarn('CMD: command %d: no COMMAND_ACK within %.1f s', cmd, self.timeout_s)
                 return False, mavlink.MAV_RESULT_FAILED
@@ -73,9 +86,9 @@ class Command:
         finally:
             self.waiter.end(cmd)
 
-    def _call(self, cmd, params):
+    def _call(self, cmd, params, confirmation=CONFIRMATION):
         try:
-            return self.command_long(cmd, params)
+            return self.command_long(cmd, params, confirmation)
         except Busy as err:
             raise rospy.ServiceException(str(err))
 
@@ -92,3 +105,43 @@ class Command:
         success, result = self._call(mavlink.MAV_CMD_NAV_LAND, [0.0, 0.0, 0.0, req.yaw, req.latitude,
                                                                 req.longitude, req.altitude])
         return CommandTOLResponse(success=success, result=result)
+
+    def _command(self, req):
+        params = (req.param1, req.param2, req.param3, req.param4, req.param5, req.param6, req.param7)
+        if req.broadcast:
+            b = self.bridge
+            b.send(b.mav.command_long_encode(0, 0, req.command, req.confirmation, *params))
+            return CommandLongResponse(success=True, result=mavlink.MAV_RESULT_ACCEPTED)
+        success, result = self._call(req.command, params, req.confirmation)
+        return CommandLongResponse(success=success, result=result)
+
+    def _command_int(self, req):
+        b = self.bridge
+        target = (0, 0) if req.broadcast else (b.target_system, b.target_component)
+        sent = b.send(b.mav.command_int_encode(*target, req.frame, req.command, req.current, req.autocontinue,
+                                               req.param1, req.param2, req.param3, req.param4, req.x, req.y, req.z))
+        return CommandIntResponse(success=bool(sent))
+
+    def _set_message_interval(self, req):
+        if req.message_rate < 0:
+            interval_us = -1.0
+        elif req.message_rate == 0:
+            interval_us = 0.0
+        else:
+            interval_us = 1e6 / req.message_rate
+        try:
+            answered, result = self.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, [req.message_id, interval_us],
+                                                 confirmation=0)
+        except Busy as err:
+            raise rospy.ServiceException(str(err))
+        if result != mavlink.MAV_RESULT_ACCEPTED:
+            rospy.logerr('SetMessageInterval: message %d at %g Hz: MAV_RESULT %d', req.message_id, req.message_rate,
+                         result)
+        # as mavros: success means the command went through (an ACK came), whatever its result
+        return MessageIntervalResponse(success=answered or result != mavlink.MAV_RESULT_FAILED)
+
+    def _set_stream_rate(self, req):
+        b = self.bridge
+        b.send(b.mav.request_data_stream_encode(b.target_system, b.target_component, req.stream_id, req.message_rate,
+                                                1 if req.on_off else 0))
+        return StreamRateResponse()

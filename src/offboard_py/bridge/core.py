@@ -78,6 +78,10 @@ class Bridge:
         """A header stamp (ROS time)."""
         return self._ros.now()
 
+    def get_param(self, name, default):
+        """A ROS parameter (`~name` is the node's own)."""
+        return self._ros.get_param(name, default)
+
     def is_shutdown(self):
         return self._ros.is_shutdown()
 

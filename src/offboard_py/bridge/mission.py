@@ -14,7 +14,7 @@ import time
 import rospy
 from mavros_msgs.msg import Waypoint, WaypointList, WaypointReached
 from mavros_msgs.srv import (WaypointClear, WaypointClearResponse, WaypointPull, WaypointPullResponse, WaypointPush,
-                             WaypointPushResponse)
+                             WaypointPushResponse, WaypointSetCurrent, WaypointSetCurrentResponse)
 
 from offboard_py.dialect import mavlink
 
@@ -61,7 +61,9 @@ class Mission:
         self.reached_pub = bridge.publisher('~mission/reached', WaypointReached)
         self.services = [bridge.service('~mission/push', WaypointPush, self._push),
                          bridge.service('~mission/pull', WaypointPull, self._pull),
-                         bridge.service('~mission/clear', WaypointClear, self._clear)]
+                         bridge.service('~mission/clear', WaypointClear, self._clear),
+                         bridge.service('~mission/set_current', WaypointSetCurrent, self._set_current)]
+        self.current_wanted = None  # (seq, Event) while ~mission/set_current waits for MISSION_CURRENT
         for name in TRANSFER_MESSAGES:
             bridge.on(name, self._to_transfer)
         bridge.on('MISSION_CURRENT', self._on_current)
@@ -79,6 +81,9 @@ class Mission:
             inbox.put(msg)
 
     def _on_current(self, msg):
+        wanted = self.current_wanted
+        if wanted is not None and msg.seq == wanted[0]:
+            wanted[1].set()
         if msg.seq != self.current_seq:
             self.current_seq = msg.seq
             for i, wp in enumerate(self.waypoints):
@@ -234,3 +239,18 @@ class Mission:
         except TransferError as err:
             rospy.logerr('WP: clear failed: %s', err)
             return WaypointClearResponse(success=False)
+
+    def _set_current(self, req):
+        """MISSION_SET_CURRENT, answered by the FCU's MISSION_CURRENT with that seq (tries as a transfer step)."""
+        b = self.bridge
+        done = threading.Event()
+        self.current_wanted = (req.wp_seq, done)
+        try:
+            for _ in range(STEP_RETRIES + 1):
+                b.send(b.mav.mission_set_current_encode(b.target_system, b.target_component, req.wp_seq))
+                if done.wait(STEP_TIMEOUT_S):
+                    return WaypointSetCurrentResponse(success=True)
+        finally:
+            self.current_wanted = None
+        rospy.logerr('WP: set current #%d: no MISSION_CURRENT with it after %d tries', req.wp_seq, STEP_RETRIES + 1)
+        return WaypointSetCurrentResponse(success=False)

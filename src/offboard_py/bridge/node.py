@@ -43,6 +43,10 @@ class RospyEndpoints:
         return rospy.Time.now()
 
     @staticmethod
+    def get_param(name, default):
+        return rospy.get_param(name, default)
+
+    @staticmethod
     def is_shutdown():
         return rospy.is_shutdown()
 

@@ -20,7 +20,8 @@ import time
 
 import rospy
 from mavros_msgs.msg import ParamValue
-from mavros_msgs.srv import ParamGet, ParamGetResponse, ParamPull, ParamPullResponse, ParamSet, ParamSetResponse
+from mavros_msgs.srv import (ParamGet, ParamGetResponse, ParamPull, ParamPullResponse, ParamPush, ParamPushResponse,
+                             ParamSet, ParamSetRequest, ParamSetResponse)
 
 from offboard_py import param_codec
 
@@ -45,7 +46,8 @@ class Param:
         self.pull_lock = threading.Lock()
         self.services = [bridge.service('~param/pull', ParamPull, self._pull),
                          bridge.service('~param/get', ParamGet, self._get),
-                         bridge.service('~param/set', ParamSet, self._set)]
+                         bridge.service('~param/set', ParamSet, self._set),
+                         bridge.service('~param/push', ParamPush, self._push)]
         bridge.on('PARAM_VALUE', self._on_value)
         bridge.after_connect(PULL_AFTER_CONNECT_S, self._auto_pull)
 
@@ -179,3 +181,32 @@ class Param:
                     self.lock.wait(0.05)
         rospy.logerr('PR: %s: no PARAM_VALUE echo after %d tries', req.param_id, SET_RETRIES)
         return ParamSetResponse(success=False, value=self._value_msg(*entry))
+
+    def _push(self, _req):
+        """mavros's param/push: each ROS parameter under ~param (NAME: number) set on the FCU
+        where it differs; success when every one was set."""
+        wanted = self.bridge.get_param('~param', {})
+        if not isinstance(wanted, dict):
+            rospy.logerr('PR: ~param is not a dictionary of parameters: %r', wanted)
+            return ParamPushResponse(success=False, param_transfered=0)
+        transferred, failed = 0, []
+        for name, value in sorted(wanted.items()):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                rospy.logerr('PR: ~param/%s: %r is not a number', name, value)
+                failed.append(name)
+                continue
+            entry = self._entry(name)
+            if entry is not None and entry[0] == value:
+                continue
+            req = ParamSetRequest(param_id=name)
+            if isinstance(value, int):
+                req.value.integer = value
+            else:
+                req.value.real = value
+            if self._set(req).success:
+                transferred += 1
+            else:
+                failed.append(name)
+        if failed:
+            rospy.logerr('PR: push: not set: %s', ', '.join(failed))
+        return ParamPushResponse(success=not failed, param_transfered=transferred)
