@@ -101,6 +101,14 @@ def test_estimator_realism_of_px4_sitls_size_and_an_ideal_vehicle():
     assert all(row[5:11] == (0.0,) * 6 for row in ideal.trace), 'ideal: exact, the ground at z = 0'
 
 
+def test_set_ideal_is_what_sim_px4_ideal_does():
+    r = fp.Run()
+    r.flight.set_ideal()
+    assert r.status().home == (0.0, 0.0, 0.0)
+    r.run(1.0)
+    assert r.status().position == (0.0, 0.0, 0.0) and r.status().landed_state == fp.M.MAV_LANDED_STATE_ON_GROUND
+
+
 def test_home_is_set_again_at_arming():
     r = fp.Run()
     r.run(1.0)
