@@ -8,7 +8,8 @@ import time
 import rospy
 import rostest
 from geometry_msgs.msg import PoseStamped, Quaternion, TwistStamped
-from mavros_msgs.msg import Altitude, HomePosition, PositionTarget, Waypoint, WaypointList
+from mavros_msgs.msg import (Altitude, AttitudeTarget, EstimatorStatus, HomePosition, Mavlink, PositionTarget,
+                             TimesyncStatus, VFR_HUD, Waypoint, WaypointList)
 from mavros_msgs.srv import (CommandInt, CommandLong, MessageInterval, ParamGet, ParamPull, ParamPush, ParamSet,
                              ParamSetRequest, StreamRate, WaypointClear, WaypointPush, WaypointSetCurrent)
 from nav_msgs.msg import Odometry
@@ -344,7 +345,8 @@ class BridgeTest(OffboardTestCase):
     def test_09d_more_mavros_topics_carry_the_fcus_data(self):
         """The topics mavros users reach for, at the rate of the FCU message behind each (PX4's
         onboard stream: GLOBAL_POSITION_INT and HIGHRES_IMU 50 Hz, LOCAL_POSITION_NED 30 Hz,
-        POSITION_TARGET_LOCAL_NED 10 Hz, GPS_RAW_INT 8 Hz, SYSTEM_TIME 1 Hz, BATTERY_STATUS 0.5 Hz).
+        POSITION_TARGET_LOCAL_NED 10 Hz, GPS_RAW_INT 8 Hz, SYSTEM_TIME 1 Hz, BATTERY_STATUS 0.5 Hz;
+        /mavlink/from carries every frame: about 405 a second).
         raw/gps_vel is left out: on the ground GPS_RAW_INT has no course, and mavros then
         publishes none (a unit test holds the moving case)."""
         expected = {  # topic: (type, FCU rate in Hz)
@@ -354,7 +356,9 @@ class BridgeTest(OffboardTestCase):
             'local_position/odom': (Odometry, 30), 'local_position/velocity_body': (TwistStamped, 30),
             'imu/data_raw': (Imu, 50), 'imu/mag': (MagneticField, 50), 'imu/static_pressure': (FluidPressure, 50),
             'imu/temperature_imu': (Temperature, 50), 'setpoint_raw/target_local': (PositionTarget, 10),
-            'time_reference': (TimeReference, 1), 'battery': (BatteryState, 0.5), '/tf': (TFMessage, 30)}
+            'time_reference': (TimeReference, 1), 'battery': (BatteryState, 0.5), '/tf': (TFMessage, 30),
+            'vfr_hud': (VFR_HUD, 10), 'estimator_status': (EstimatorStatus, 1), 'timesync_status': (TimesyncStatus, 10),
+            'setpoint_raw/target_attitude': (AttitudeTarget, 10), '/mavlink/from': (Mavlink, 405)}
         self.wait_for_connected(self.sim, 15.0)
         counts = {topic: 0 for topic in expected}
 

@@ -125,6 +125,7 @@ class MavlinkLink:
         self._wanted_ids = set()  # the message ids some handler reads: only these are decoded
         self._last_seq = {}       # (system, component) -> the last sequence number received
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
+        self.on_frame = None     # optional raw hook: on_frame(bytes) for each valid frame, read or not
         self.stats = collections.Counter()
         self.last_receive_s = None
         self.signing = LinkSigning(self.mav, self._send_lock, self.stats)
@@ -241,6 +242,8 @@ class MavlinkLink:
                 if wire.crc_ok(msg_id, frame):
                     undecoded += 1
                     self._count_sequence(frame)
+                    if self.on_frame is not None:
+                        self._call(self.on_frame, frame)
                 else:
                     bad += 1
             else:
@@ -250,6 +253,8 @@ class MavlinkLink:
                     bad += 1
                 else:
                     self._count_sequence(frame)
+                    if self.on_frame is not None:
+                        self._call(self.on_frame, frame)
         if bad:
             self.stats['bad_frames'] += bad
         if not messages and not undecoded:
@@ -290,7 +295,7 @@ class MavlinkLink:
             handler(msg)
         except Exception:  # a handler bug must not take the receive loop down
             self.stats['handler_errors'] += 1
-            log.exception('handler %r failed on %s', handler, msg.get_type())
+            log.exception('handler %r failed on %s', handler, msg.get_type() if hasattr(msg, 'get_type') else 'a frame')
 
     def close(self):
         self.sock.close()

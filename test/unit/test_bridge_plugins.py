@@ -178,7 +178,10 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~set_message_interval', '~set_stream_rate', '~param/pull', '~param/get', '~param/set', '~param/push',
         '~mission/push', '~mission/pull', '~mission/clear', '~mission/set_current'}
     assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local',
-                                          '~setpoint_velocity/cmd_vel', '~setpoint_velocity/cmd_vel_unstamped'}
+                                          '~setpoint_velocity/cmd_vel', '~setpoint_velocity/cmd_vel_unstamped',
+                                          '~setpoint_raw/attitude', '~setpoint_raw/global',
+                                          '~setpoint_attitude/attitude', '~setpoint_attitude/thrust',
+                                          '~statustext/send', 'mavlink/to'}
     topics = rig.ros.topics
     assert set(topics) == {
         '~state', '~extended_state', '~local_position/pose', '~local_position/velocity_local',
@@ -187,12 +190,13 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~global_position/raw/fix', '~global_position/raw/gps_vel', '~global_position/raw/satellites',
         '~altitude', '~imu/data', '~imu/data_raw', '~imu/mag', '~imu/static_pressure', '~imu/temperature_imu',
         '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
-        '~setpoint_raw/target_local', '/diagnostics'}
+        '~setpoint_raw/target_local', '~setpoint_raw/target_attitude', '~statustext/recv', '~vfr_hud', '~rc/in',
+        '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics'}
     assert '/tf' in Rig(*node.PLUGINS, local_position__tf__send=True).ros.topics, 'tf/send adds /tf'
     assert {name for name, pub in topics.items() if pub.latch} == {'~state', '~home_position/home',
                                                                    '~mission/waypoints'}
     assert {name: pub.queue_size for name, pub in topics.items() if pub.queue_size != 10} == {
-        '~home_position/home': 2, '~mission/waypoints': 2}
+        '~home_position/home': 2, '~mission/waypoints': 2, 'mavlink/from': 100}
 
 
 # -- sys_status --------------------------------------------------------------------------------
@@ -774,3 +778,80 @@ def test_mission_set_current_waits_for_mission_current():
     rig.fcu.answers['MISSION_SET_CURRENT'] = lambda m: [BUILD.mission_current_encode(m.seq)]
     assert rig.call('~mission/set_current', WaypointSetCurrentRequest(wp_seq=2)).success
     assert rig.fcu.got('MISSION_SET_CURRENT')[0].seq == 2
+
+
+
+# -- statustext, vfr_hud, rc/in, estimator_status, attitude setpoints, raw MAVLink ---------------
+
+def test_statustext_both_ways_vfr_hud_rc_in_and_estimator_status():
+    from mavros_msgs.msg import StatusText
+    from offboard_py.bridge import rc_io, statustext, vfr_hud
+    rig = Rig(statustext.StatusTexts, vfr_hud.VfrHud, rc_io.RcIo, sys_status.SysStatus)
+    rig.fcu.send(BUILD.statustext_encode(mavlink.MAV_SEVERITY_WARNING, b'Preflight Fail: baro'))
+    text = rig.published('~statustext/recv')[-1]
+    assert (text.severity, text.text) == (4, 'Preflight Fail: baro')
+    rig.ros.subscriptions['~statustext/send'](StatusText(severity=6, text='hello PX4'))
+    rig.ros.subscriptions['~statustext/send'](StatusText(severity=6, text='x' * 51))
+    assert [(m.severity, m.text) for m in rig.fcu.got('STATUSTEXT')] == [(6, 'hello PX4')], '51 characters refused'
+    rig.fcu.send(BUILD.vfr_hud_encode(0.5, 0.4, 90, 55, 490.2, -0.1))
+    hud = rig.published('~vfr_hud')[-1]
+    assert (hud.heading, hud.throttle, hud.altitude) == pytest.approx((90, 0.55, 490.2))
+    rig.fcu.send(BUILD.rc_channels_encode(100, 4, 1500, 1500, 1000, 1500, *[0] * 14, 200))
+    rc = rig.published('~rc/in')[-1]
+    assert list(rc.channels) == [1500, 1500, 1000, 1500] and rc.rssi == 200
+    rig.fcu.send(BUILD.estimator_status_encode(0, 1023, 0, 0, 0, 0, 0, 0, 0, 0))
+    est = rig.published('~estimator_status')[-1]
+    assert est.attitude_status_flag and est.const_pos_mode_status_flag and not est.gps_glitch_status_flag
+
+
+def test_attitude_setpoints_go_out_in_ned_and_targets_come_back_enu():
+    from geometry_msgs.msg import PoseStamped
+    from mavros_msgs.msg import AttitudeTarget, Thrust
+    from offboard_py.bridge import setpoint_attitude
+    rig = Rig(setpoint.Setpoint, setpoint_attitude.SetpointAttitude)
+    north = (0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5))  # ENU yaw +90 deg: facing north
+    raw = AttitudeTarget(type_mask=AttitudeTarget.IGNORE_ROLL_RATE | AttitudeTarget.IGNORE_PITCH_RATE |
+                         AttitudeTarget.IGNORE_YAW_RATE, thrust=0.6)
+    raw.orientation.x, raw.orientation.y, raw.orientation.z, raw.orientation.w = north
+    rig.ros.subscriptions['~setpoint_raw/attitude'](raw)
+    [sent] = rig.fcu.got('SET_ATTITUDE_TARGET')
+    assert same_rotation((sent.q[1], sent.q[2], sent.q[3], sent.q[0]), (0.0, 0.0, 0.0, 1.0)), 'north is NED identity'
+    assert sent.thrust == pytest.approx(0.6) and sent.type_mask == 7
+    pose = PoseStamped()
+    pose.header.stamp = rospy.Time(5)
+    pose.pose.orientation.x, pose.pose.orientation.y, pose.pose.orientation.z, pose.pose.orientation.w = north
+    rig.ros.subscriptions['~setpoint_attitude/attitude'](pose)
+    assert len(rig.fcu.got('SET_ATTITUDE_TARGET')) == 1, 'no thrust yet: nothing sent'
+    thrust = Thrust(thrust=0.7)
+    thrust.header.stamp = rospy.Time(5)
+    rig.ros.subscriptions['~setpoint_attitude/thrust'](thrust)
+    rig.ros.subscriptions['~setpoint_attitude/attitude'](pose)
+    assert rig.fcu.got('SET_ATTITUDE_TARGET')[-1].thrust == pytest.approx(0.7)
+    rig.fcu.send(BUILD.attitude_target_encode(100, 7, [1.0, 0.0, 0.0, 0.0], 0.1, 0.2, 0.3, 0.5))
+    target = rig.published('~setpoint_raw/target_attitude')[-1]
+    o = target.orientation
+    assert same_rotation((o.x, o.y, o.z, o.w), north)
+    assert (target.body_rate.x, target.body_rate.y, target.body_rate.z) == pytest.approx((0.1, -0.2, -0.3))
+
+
+def test_raw_global_setpoint():
+    from mavros_msgs.msg import GlobalPositionTarget
+    rig = Rig(setpoint.Setpoint)
+    msg = GlobalPositionTarget(coordinate_frame=GlobalPositionTarget.FRAME_GLOBAL_REL_ALT, type_mask=0xFF8,
+                               latitude=47.3977419, longitude=8.5455938, altitude=20.0, yaw=0.0)
+    rig.ros.subscriptions['~setpoint_raw/global'](msg)
+    [sent] = rig.fcu.got('SET_POSITION_TARGET_GLOBAL_INT')
+    assert (sent.lat_int, sent.lon_int, sent.alt, sent.coordinate_frame) == (473977419, 85455938, 20.0, 6)
+    assert sent.yaw == pytest.approx(math.pi / 2), 'ENU yaw 0 (east) is NED yaw +90 deg'
+
+
+def test_raw_mavlink_from_and_to():
+    from offboard_py.bridge import mavlink_passthrough as mp
+    link_frame = wire_frame = BUILD.attitude_encode(1000, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0).pack(
+        mavlink.MAVLink(None, srcSystem=1, srcComponent=1))
+    msg = mp.frame_to_msg(bytes(link_frame), rospy.Time(1))
+    assert (msg.magic, msg.msgid, msg.sysid, msg.len) == (0xFD, mavlink.MAVLINK_MSG_ID_ATTITUDE, 1, len(link_frame) - 12)
+    assert mp.msg_to_frame(msg) == bytes(wire_frame), 'from -> to gives the frame back, byte for byte'
+    msg.magic = 0x55
+    with pytest.raises(ValueError, match='magic 0x55'):
+        mp.msg_to_frame(msg)

@@ -15,11 +15,13 @@ from offboard_py.bridge.core import Bridge
 from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
 from offboard_py.mavlink_link import MavlinkLink, UrlError
 from offboard_py.bridge import (altitude, battery, command, diagnostics, global_position, home_position, imu,
-                                local_position, mission, param, setpoint, sys_status, sys_time)
+                                local_position, mavlink_passthrough, mission, param, rc_io, setpoint,
+                                setpoint_attitude, statustext, sys_status, sys_time, vfr_hud)
 
 PLUGINS = (sys_status.SysStatus, sys_time.SysTime, command.Command, setpoint.Setpoint, local_position.LocalPosition,
            global_position.GlobalPosition, altitude.Altitude, imu.Imu, home_position.HomePosition,
-           param.Param, mission.Mission, battery.Battery, diagnostics.Diagnostics)
+           param.Param, mission.Mission, battery.Battery, statustext.StatusTexts, vfr_hud.VfrHud, rc_io.RcIo,
+           setpoint_attitude.SetpointAttitude, mavlink_passthrough.MavlinkPassthrough, diagnostics.Diagnostics)
 
 
 class RospyEndpoints:

@@ -9,7 +9,11 @@
 - ~setpoint_velocity/cmd_vel (TwistStamped) and cmd_vel_unstamped (Twist), ENU: frame
   LOCAL_NED, type_mask velocity and yaw rate (0x5C7), as mavros's setpoint_velocity.
 - ~setpoint_raw/target_local (PositionTarget, ENU) from POSITION_TARGET_LOCAL_NED: what the
-  FCU's controller tracks.
+  FCU's controller tracks; ~setpoint_raw/target_attitude (AttitudeTarget) from ATTITUDE_TARGET.
+- ~setpoint_raw/attitude (AttitudeTarget, ENU/FLU) out as SET_ATTITUDE_TARGET (orientation to
+  NED/FRD, body rates FLU->FRD, thrust as given: px4_config's thrust_scaling 1.0);
+  ~setpoint_raw/global (GlobalPositionTarget) out as SET_POSITION_TARGET_GLOBAL_INT
+  (lat/lon *1e7, vectors ENU->NED, yaw and yaw rate to NED).
 A setpoint with a NaN or infinite number in a field it uses is not sent, and is logged
 (at most a line per topic every 5 s); in a field its type_mask ignores, it is sent as 0.
 """
@@ -18,7 +22,7 @@ import math
 
 import rospy
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
-from mavros_msgs.msg import PositionTarget
+from mavros_msgs.msg import AttitudeTarget, GlobalPositionTarget, PositionTarget
 
 from offboard_py import frames
 from offboard_py.bridge import typemask
@@ -53,10 +57,14 @@ class Setpoint:
             bridge.subscriber('~setpoint_velocity/cmd_vel_unstamped', Twist,
                               lambda msg: self._on_velocity('setpoint_velocity/cmd_vel_unstamped', bridge.now(), msg)),
         ]
+        self.subs += [bridge.subscriber('~setpoint_raw/attitude', AttitudeTarget, self._on_raw_attitude),
+                      bridge.subscriber('~setpoint_raw/global', GlobalPositionTarget, self._on_raw_global)]
         self.target_pub = bridge.publisher('~setpoint_raw/target_local', PositionTarget)
+        self.target_attitude_pub = bridge.publisher('~setpoint_raw/target_attitude', AttitudeTarget)
         bridge.on('POSITION_TARGET_LOCAL_NED', self._on_target)
+        bridge.on('ATTITUDE_TARGET', self._on_target_attitude)
 
-    def _reject(self, topic, what):
+    def reject(self, topic, what):
         """Count and log; at most one line per topic every 5 s (rospy's throttle would merge topics)."""
         self.rejected += 1
         now = self.bridge.monotonic_s()
@@ -67,7 +75,7 @@ class Setpoint:
     def _on_pose(self, msg):
         p, q = msg.pose.position, msg.pose.orientation
         if not _finite(p.x, p.y, p.z, q.x, q.y, q.z, q.w):
-            self._reject('setpoint_position/local', 'a NaN or infinite value')
+            self.reject('setpoint_position/local', 'a NaN or infinite value')
             return
         north, east, down = frames.enu_to_ned(p.x, p.y, p.z)
         yaw = frames.quaternion_yaw(frames.orientation_enu_to_ned((q.x, q.y, q.z, q.w)))
@@ -80,7 +88,7 @@ class Setpoint:
         p, v, a = msg.position, msg.velocity, msg.acceleration_or_force
         bad = typemask.bad_used_fields(msg.type_mask, typemask.position_target_values(msg))
         if bad:
-            self._reject('setpoint_raw/local', 'a NaN or infinite %s' % ', '.join(bad))
+            self.reject('setpoint_raw/local', 'a NaN or infinite %s' % ', '.join(bad))
             return
         # PX4 ignores what the mask ignores; send zeros there rather than NaN
         p, v, a = (_zero_unfinite(c) for c in (p, v, a))
@@ -96,7 +104,7 @@ class Setpoint:
     def _on_velocity(self, topic, stamp, twist):
         v, w = twist.linear, twist.angular
         if not _finite(v.x, v.y, v.z, w.z):
-            self._reject(topic, 'a NaN or infinite value')
+            self.reject(topic, 'a NaN or infinite value')
             return
         b = self.bridge
         b.send(b.mav.set_position_target_local_ned_encode(
@@ -116,3 +124,59 @@ class Setpoint:
         msg.yaw = frames.yaw_ned_to_enu(tgt.yaw) if math.isfinite(tgt.yaw) else tgt.yaw
         msg.yaw_rate = -tgt.yaw_rate
         self.target_pub.publish(msg)
+
+    def send_attitude_target(self, topic, stamp, type_mask, q, rates, thrust):
+        """SET_ATTITUDE_TARGET from an ENU/FLU orientation (x, y, z, w) and FLU body rates."""
+        used = [] if type_mask & AttitudeTarget.IGNORE_ATTITUDE else list(q)
+        used += [] if type_mask & AttitudeTarget.IGNORE_THRUST else [thrust]
+        used += [r for r, bit in zip(rates, (AttitudeTarget.IGNORE_ROLL_RATE, AttitudeTarget.IGNORE_PITCH_RATE,
+                                              AttitudeTarget.IGNORE_YAW_RATE)) if not type_mask & bit]
+        if not _finite(*used):
+            self.reject(topic, 'a NaN or infinite value')
+            return
+        q = q if _finite(*q) and any(q) else (0.0, 0.0, 0.0, 1.0)
+        q_ned = frames.orientation_enu_to_ned(q)
+        rates = frames.flu_to_frd(*(r if math.isfinite(r) else 0.0 for r in rates))
+        b = self.bridge
+        b.send(b.mav.set_attitude_target_encode(
+            _time_boot_ms(stamp), b.target_system, b.target_component, type_mask,
+            [q_ned[3], q_ned[0], q_ned[1], q_ned[2]], *rates, thrust if math.isfinite(thrust) else 0.0))
+
+    def _on_raw_attitude(self, msg):
+        q, w = msg.orientation, msg.body_rate
+        self.send_attitude_target('setpoint_raw/attitude', msg.header.stamp, msg.type_mask, (q.x, q.y, q.z, q.w),
+                                  (w.x, w.y, w.z), msg.thrust)
+
+    def _on_raw_global(self, msg):
+        values = {'position.x': msg.latitude, 'position.y': msg.longitude, 'position.z': msg.altitude,
+                  'velocity.x': msg.velocity.x, 'velocity.y': msg.velocity.y, 'velocity.z': msg.velocity.z,
+                  'acceleration_or_force.x': msg.acceleration_or_force.x,
+                  'acceleration_or_force.y': msg.acceleration_or_force.y,
+                  'acceleration_or_force.z': msg.acceleration_or_force.z, 'yaw': msg.yaw, 'yaw_rate': msg.yaw_rate}
+        bad = typemask.bad_used_fields(msg.type_mask, values)
+        if bad:
+            self.reject('setpoint_raw/global', 'a NaN or infinite %s' % ', '.join(bad))
+            return
+        if not (-90.0 <= msg.latitude <= 90.0 and -180.0 <= msg.longitude <= 180.0) and not msg.type_mask & 3:
+            self.reject('setpoint_raw/global', 'latitude/longitude out of range')
+            return
+        v, a = (_zero_unfinite(c) for c in (msg.velocity, msg.acceleration_or_force))
+        b = self.bridge
+        b.send(b.mav.set_position_target_global_int_encode(
+            _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, msg.coordinate_frame,
+            msg.type_mask, int(round(msg.latitude * 1e7)) if math.isfinite(msg.latitude) else 0,
+            int(round(msg.longitude * 1e7)) if math.isfinite(msg.longitude) else 0,
+            msg.altitude if math.isfinite(msg.altitude) else 0.0, *frames.enu_to_ned(v.x, v.y, v.z),
+            *frames.enu_to_ned(a.x, a.y, a.z), frames.yaw_enu_to_ned(msg.yaw) if math.isfinite(msg.yaw) else 0.0,
+            -msg.yaw_rate if math.isfinite(msg.yaw_rate) else 0.0))
+
+    def _on_target_attitude(self, tgt):
+        if not self.target_attitude_pub.get_num_connections():
+            return
+        msg = AttitudeTarget(type_mask=tgt.type_mask, thrust=tgt.thrust)
+        msg.header.stamp = self.bridge.fcu_stamp_ms(tgt.time_boot_ms)
+        q = frames.orientation_ned_to_enu(frames.wxyz_to_xyzw(*tgt.q))
+        msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w = q
+        msg.body_rate.x, msg.body_rate.y, msg.body_rate.z = frames.frd_to_flu(
+            tgt.body_roll_rate, tgt.body_pitch_rate, tgt.body_yaw_rate)
+        self.target_attitude_pub.publish(msg)

@@ -12,12 +12,26 @@
 import collections
 
 import rospy
-from mavros_msgs.msg import ExtendedState, State
+from mavros_msgs.msg import EstimatorStatus, ExtendedState, State
 from mavros_msgs.srv import SetMode, SetModeResponse
 
 from offboard_py import px4_modes
 from offboard_py.bridge import filters
 from offboard_py.dialect import mavlink
+
+
+ESTIMATOR_FLAGS = (('attitude_status_flag', mavlink.ESTIMATOR_ATTITUDE),
+                   ('velocity_horiz_status_flag', mavlink.ESTIMATOR_VELOCITY_HORIZ),
+                   ('velocity_vert_status_flag', mavlink.ESTIMATOR_VELOCITY_VERT),
+                   ('pos_horiz_rel_status_flag', mavlink.ESTIMATOR_POS_HORIZ_REL),
+                   ('pos_horiz_abs_status_flag', mavlink.ESTIMATOR_POS_HORIZ_ABS),
+                   ('pos_vert_abs_status_flag', mavlink.ESTIMATOR_POS_VERT_ABS),
+                   ('pos_vert_agl_status_flag', mavlink.ESTIMATOR_POS_VERT_AGL),
+                   ('const_pos_mode_status_flag', mavlink.ESTIMATOR_CONST_POS_MODE),
+                   ('pred_pos_horiz_rel_status_flag', mavlink.ESTIMATOR_PRED_POS_HORIZ_REL),
+                   ('pred_pos_horiz_abs_status_flag', mavlink.ESTIMATOR_PRED_POS_HORIZ_ABS),
+                   ('gps_glitch_status_flag', mavlink.ESTIMATOR_GPS_GLITCH),
+                   ('accel_error_status_flag', mavlink.ESTIMATOR_ACCEL_ERROR))
 
 
 def custom_mode_from_string(text):
@@ -44,6 +58,8 @@ class SysStatus:
         bridge.diagnostic('Heartbeat', self._heartbeat_status)
         self.state_pub = bridge.publisher('~state', State, latch=True)
         self.extended_pub = bridge.publisher('~extended_state', ExtendedState)
+        self.estimator_pub = bridge.publisher('~estimator_status', EstimatorStatus)
+        bridge.on('ESTIMATOR_STATUS', self._on_estimator_status)
         self.set_mode_srv = bridge.service('~set_mode', SetMode, self._set_mode)
         bridge.on('HEARTBEAT', self._on_heartbeat, filters.COMPONENT)
         bridge.on('EXTENDED_SYS_STATE', self._on_extended_state)
@@ -115,6 +131,16 @@ class SysStatus:
         msg.header.stamp = self.bridge.now()
         msg.vtol_state, msg.landed_state = ext.vtol_state, ext.landed_state
         self.extended_pub.publish(msg)
+
+    def _on_estimator_status(self, status):
+        """~estimator_status: one bool per ESTIMATOR_STATUS_FLAGS bit, as mavros."""
+        if not self.estimator_pub.get_num_connections():
+            return
+        msg = EstimatorStatus()
+        msg.header.stamp = self.bridge.now()
+        for field, flag in ESTIMATOR_FLAGS:
+            setattr(msg, field, bool(status.flags & flag))
+        self.estimator_pub.publish(msg)
 
     def _send_heartbeat(self, _now_s):
         b = self.bridge

@@ -19,6 +19,7 @@ As mavros's sys_time plugin does it (timesync mode MAVLINK, the default):
 import logging
 import math
 
+from mavros_msgs.msg import TimesyncStatus
 from sensor_msgs.msg import TimeReference
 
 log = logging.getLogger(__name__)
@@ -97,6 +98,7 @@ class SysTime:
         self.filter = TimesyncFilter(**cfg['time/filter'])
         bridge.clock_offset = self  # what Bridge.fcu_stamp_* read
         self.time_ref_pub = bridge.publisher('~time_reference', TimeReference)
+        self.status_pub = bridge.publisher('~timesync_status', TimesyncStatus)
         bridge.on('SYSTEM_TIME', self._on_system_time)
         bridge.on('TIMESYNC', self._on_timesync)
         self.answers, self.last_rtt_ns, self.rtt_sum_ns = 0, None, 0
@@ -133,6 +135,12 @@ class SysTime:
             warning = self.filter.observe(offset, rtt)
             if warning:
                 log.warning('%s', warning)
+            if self.status_pub.get_num_connections():
+                status = TimesyncStatus(remote_timestamp_ns=msg.tc1, observed_offset_ns=offset,
+                                        estimated_offset_ns=int(self.filter.estimate_ns),
+                                        round_trip_time_ms=rtt / 1e6)
+                status.header.stamp = self.bridge.now()
+                self.status_pub.publish(status)
 
     def _status(self):
         f = self.filter
