@@ -493,15 +493,22 @@ def answer_read(m):
     return [] if index is None else [param_value(index)]
 
 
-def test_param_get_and_set_before_the_pull_read_from_the_fcu(monkeypatch):
-    """PX4's posctl test sets COM_RCL_EXCEPT right after start: before the 10 s pull, the bridge
-    reads that parameter by name instead of answering false as mavros does."""
+def param_fcu_rig(monkeypatch):
+    """A connected bridge with the param plugin, before any pull; the FCU answers reads (by index
+    or name) and echoes sets."""
     monkeypatch.setattr(param, 'READ_TIMEOUT_S', 0.05)
     rig = Rig(param.Param)
     rig.bridge.connected = True
     rig.fcu.answers['PARAM_REQUEST_READ'] = answer_read
     rig.fcu.answers['PARAM_SET'] = lambda m: [BUILD.param_value_encode(m.param_id.encode(), m.param_value,
-                                                                             m.param_type, len(PARAMS), 2)]
+                                                                             m.param_type, len(PARAMS), 0)]
+    return rig
+
+
+def test_param_get_and_set_before_the_pull_read_from_the_fcu(monkeypatch):
+    """PX4's posctl test sets COM_RCL_EXCEPT right after start: before the 10 s pull, the bridge
+    reads that parameter by name instead of answering false as mavros does."""
+    rig = param_fcu_rig(monkeypatch)
     got = rig.call('~param/get', ParamGetRequest(param_id='MPC_XY_VEL_MAX'))
     assert got.success and got.value.real == 12.0
     [read] = rig.fcu.got('PARAM_REQUEST_READ')
@@ -515,10 +522,7 @@ def test_param_get_and_set_before_the_pull_read_from_the_fcu(monkeypatch):
 
 
 def test_param_unknown_to_the_fcu_too_is_false_after_the_retries(monkeypatch):
-    monkeypatch.setattr(param, 'READ_TIMEOUT_S', 0.05)
-    rig = Rig(param.Param)
-    rig.bridge.connected = True
-    rig.fcu.answers['PARAM_REQUEST_READ'] = answer_read
+    rig = param_fcu_rig(monkeypatch)
     assert not rig.call('~param/get', ParamGetRequest(param_id='NO_SUCH_PARAM')).success
     assert len(rig.fcu.got('PARAM_REQUEST_READ')) == param.READ_RETRIES
     request = ParamSetRequest(param_id='NO_SUCH_PARAM')
@@ -760,12 +764,7 @@ def test_set_message_interval_and_stream_rate():
 
 def test_param_push_sets_what_differs(monkeypatch):
     from mavros_msgs.srv import ParamPushRequest
-    monkeypatch.setattr(param, 'READ_TIMEOUT_S', 0.05)
-    rig = Rig(param.Param)
-    rig.bridge.connected = True
-    rig.fcu.answers['PARAM_REQUEST_READ'] = answer_read
-    rig.fcu.answers['PARAM_SET'] = lambda m: [BUILD.param_value_encode(m.param_id.encode(), m.param_value,
-                                                                             m.param_type, len(PARAMS), 0)]
+    rig = param_fcu_rig(monkeypatch)
     rig.ros.params['~param'] = {'MPC_XY_VEL_MAX': 12.0, 'COM_RCL_EXCEPT': 5, 'NO_SUCH_PARAM': 1.0}
     res = rig.call('~param/push', ParamPushRequest())
     assert (res.success, res.param_transfered) == (False, 1), 'one set, one unknown to the FCU'
