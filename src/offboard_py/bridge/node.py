@@ -98,18 +98,25 @@ def main():
         return 2 if isinstance(err, ValueError) else 1
     except KeyboardInterrupt:
         return 0
-    rospy.init_node('mavros')
-    handler = _ToRosout()
-    handler.setFormatter(logging.Formatter('%(message)s'))
-    logging.getLogger('offboard_py').addHandler(handler)
-    logging.getLogger('offboard_py').setLevel(logging.INFO)
     try:
+        rospy.init_node('mavros')
+        handler = _ToRosout()
+        handler.setFormatter(logging.Formatter('%(message)s'))
+        logging.getLogger('offboard_py').addHandler(handler)
+        logging.getLogger('offboard_py').setLevel(logging.INFO)
         cfg = read_config(lambda name, default: rospy.get_param('~' + name, default))
         link, gcs = open_links(cfg)
         bridge = Bridge(cfg, link, RospyEndpoints(), PLUGINS, gcs=gcs)
     except (ConfigError, UrlError, OSError) as err:
         rospy.logfatal('mavros bridge: %s', err)
         return 2
+    except (rospy.ROSException, KeyboardInterrupt) as err:
+        # stopped while starting (rostest teardown, Ctrl-C): say so in one line, no traceback
+        if rospy.is_shutdown() or isinstance(err, KeyboardInterrupt):
+            print('mavros bridge: stopped while starting', file=sys.stderr)
+            return 0
+        print('mavros bridge: cannot start: %s' % err, file=sys.stderr)
+        return 1
     log_links(cfg, link, gcs)
     if cfg['signing']:
         rospy.loginfo('MAVLink signing on (key %s): unsigned input is %s', cfg['signing/key_file'],
