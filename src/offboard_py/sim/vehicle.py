@@ -41,7 +41,6 @@ GROUND_Z_M = 0.17              # PX4 SITL's local z on the ground (measured 0.16
 # hover wander and estimator noise of PX4 SITL's size (px4-sitl-measured.md: z +-0.1 m, xy up to 0.6 m)
 GUST_XY, GUST_Z, GUST_TAU_S = 0.5, 0.25, 4.0   # m/s^2 standard deviation, correlation time
 NOISE_POSITION_XY, NOISE_POSITION_Z, NOISE_VELOCITY = 0.02, 0.01, 0.03  # m, m, m/s (1 sigma)
-TAKEOFF_STATES = ('disarmed', 'spoolup', 'ready', 'rampup', 'flight')
 
 Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max')
 Setpoint.__doc__ = """What a flight mode asks of the controller. Vectors are NED 3-tuples whose NaN
@@ -147,7 +146,7 @@ class Vehicle:
         self.yaw_rate = 0.0
         self.motors_on = False
         self.motors_on_s = None
-        self.takeoff_state = 'disarmed'
+        self.takeoff_state = 'disarmed'  # PX4's TakeoffHandling: disarmed, spoolup, ready, rampup, flight
         self.ramp_vz = 0.0            # takeoff ramp: the climb-rate limit now (m/s, up positive)
         self.integral = [0.0, 0.0, 0.0]
         self.ground_contact = self.position[2] >= ground_z
