@@ -28,6 +28,7 @@ from offboard_py.phases import PhaseWatcher
 from offboard_py.streamstats import latencies_ms, percentile, stream_quality
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
+SCALE_TARGET = 32  # vehicles on the development machine (2 cores)
 CLK_TCK = os.sysconf('SC_CLK_TCK')
 
 
@@ -179,19 +180,26 @@ def _measure(args, scale, logdir):
     single = run(1, args.duration, logdir, latency=True)[0]
     result['single'] = single
     s, lat, ph = single['stream'], single['latency_ms'], single['phases_s']
-    lines = ['| measure (1 vehicle, %.0f s hover) | value | target |' % args.duration, '|---|---|---|',
-             '| setpoint rate at the FCU | %s Hz | 20.0 +- 0.5 %% |' % fmt(s['rate_hz'], 3),
-             '| inter-arrival p50 / p99 / max | %s / %s / %s ms | p99 <= 55, max <= 100 |'
-             % (fmt(s['p50_ms']), fmt(s['p99_ms']), fmt(s['max_ms'])),
-             '| gaps over 100 ms | %d | 0 |' % s['gaps_over_100ms'],
-             '| latency ROS publish -> FCU p50 / p99 / max | %s / %s / %s ms | p99 <= 2 |'
-             % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2))]
-    for role in ('node', 'bridge', 'sim'):
-        lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | |'
-                     % (role, fmt(single['cpu_pct'][role]), fmt(single['rss_mb'][role], 0)))
     total = sum(v for v in single['cpu_pct'].values() if v is not None)
-    lines.append('| whole stack CPU per vehicle | %s %% | <= 5 %% |' % fmt(total))
-    lines.append('| start -> connected -> OFFBOARD -> armed -> hover (0.1 m) | %s / %s / %s / %s s | |'
+
+    def met(ok):
+        return 'yes' if ok else '**NO**'
+
+    def within(value, limit):
+        return value is not None and value <= limit
+    rate_ok = s['rate_hz'] is not None and abs(s['rate_hz'] - 20.0) <= 0.1
+    lines = ['| measure (1 vehicle, %.0f s hover) | value | target | met |' % args.duration, '|---|---|---|---|',
+             '| setpoint rate at the FCU | %s Hz | 20.0 +- 0.5 %% | %s |' % (fmt(s['rate_hz'], 3), met(rate_ok)),
+             '| inter-arrival p50 / p99 / max | %s / %s / %s ms | p99 <= 55, max <= 100 | %s |'
+             % (fmt(s['p50_ms']), fmt(s['p99_ms']), fmt(s['max_ms']), met(within(s['p99_ms'], 55) and within(s['max_ms'], 100))),
+             '| gaps over 100 ms | %d | 0 | %s |' % (s['gaps_over_100ms'], met(s['gaps_over_100ms'] == 0)),
+             '| latency ROS publish -> FCU p50 / p99 / max | %s / %s / %s ms | p99 <= 2 | %s |'
+             % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2), met(within(lat['p99'], 2.0)))]
+    for role in ('node', 'bridge', 'sim'):
+        lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | | |'
+                     % (role, fmt(single['cpu_pct'][role]), fmt(single['rss_mb'][role], 0)))
+    lines.append('| whole stack CPU per vehicle | %s %% | <= 5 %% | %s |' % (fmt(total), met(total <= 5.0)))
+    lines.append('| start -> connected -> OFFBOARD -> armed -> hover (0.1 m) | %s / %s / %s / %s s | | |'
                  % tuple(fmt(ph.get(k)) for k in ('connected', 'offboard', 'armed', 'hover')))
     print('\n'.join(lines), flush=True)
     steps = []
@@ -224,7 +232,10 @@ def _measure(args, scale, logdir):
             table.append('| %d | %s | %s | %s | %s | %s |' % (st['n'], fmt(st['worst_rate_hz'], 2),
                                                           fmt(st['worst_p99_ms']), fmt(st['worst_max_ms']),
                                                           fmt(st['total_cpu_pct'], 0), 'yes' if st['holds_bar'] else 'no'))
-    table.append('\nlargest N holding p99 <= %.0f ms and no gap over %.0f ms: %s' % (BAR_P99_MS, BAR_MAX_MS, largest))
+    table.append('\nbar: every vehicle\'s setpoint stream, measured at its simulated PX4, has an inter-arrival '
+                 'p99 <= %.0f ms and no gap over %.0f ms' % (BAR_P99_MS, BAR_MAX_MS))
+    table.append('largest N holding the bar: %s (target: at least %d) %s'
+                 % (largest, SCALE_TARGET, 'met' if (largest or 0) >= SCALE_TARGET else '**NOT MET**'))
     print('\n'.join(table), flush=True)
     result['tables'] = {'single': lines, 'scaling': table}
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
