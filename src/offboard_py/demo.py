@@ -11,6 +11,7 @@ Exits 1 (saying what it saw) when the vehicle does not get there in `--timeout` 
 
 import argparse
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -140,6 +141,18 @@ def _stop(proc, timeout_s=15.0):
         proc.wait()
 
 
+def launch_failure(path, lines=6):
+    """Why roslaunch ended, from its log: the lines that say a process failed or died."""
+    try:
+        with open(path, errors='replace') as f:
+            text = f.read().splitlines()
+    except OSError:
+        return []
+    keys = ('error', 'fatal', 'died')
+    plain = (re.sub(r'\x1b\[[0-9;]*m|={3,}', '', line).strip() for line in text)  # no colours, no rules
+    return [line for line in plain if line.startswith('[sim_px4') or any(k in line.lower() for k in keys)][-lines:]
+
+
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
@@ -167,6 +180,8 @@ def main(argv=None):
             return 1
         if launch.poll() is not None:
             print('roslaunch exited (code %s) before the ROS master came up; see %s' % (launch.returncode, args.log))
+            for line in launch_failure(args.log):
+                print('  ' + line)
             return 1
         if interrupted:
             print('interrupted while waiting for the ROS master')
@@ -184,7 +199,9 @@ def main(argv=None):
         last_line = 0.0
         while not interrupted:
             if launch.poll() is not None:
-                print('\nroslaunch exited (code %s); see %s' % (launch.returncode, args.log))
+                print('\nroslaunch ended (code %s), the vehicle is gone; see %s' % (launch.returncode, args.log))
+                for line in launch_failure(args.log):
+                    print('  ' + line)
                 return 1
             if tty:
                 sys.stdout.write('\r' + rec.status() + '   ')
