@@ -116,6 +116,9 @@ def main():
         except ParamError as err:
             rospy.logfatal('%s', err)
             return 2
+        if config.z <= 0.0:
+            rospy.logwarn('~z is %g m: at or below the local origin (ENU, up; PX4 puts the origin where its '
+                          'estimator started, on the ground). The vehicle will arm but not climb.', config.z)
         OffbNode(config).spin()
     except (rospy.ROSInterruptException, KeyboardInterrupt):
         pass

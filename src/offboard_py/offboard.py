@@ -12,9 +12,12 @@ The rules, as in the tutorial:
   the previous request, whatever its answer;
 - setpoints keep streaming for as long as the node runs.
 
-Additions (documented in README): no request while the link is down, and the opt-in
+Additions (documented in README): no request while the link is down; the opt-in
 `respect_pilot`: once the vehicle has been in OFFBOARD and armed, a mode change or a
-disarm by someone else ends all further requests instead of undoing the pilot's choice.
+disarm by someone else ends all further requests instead of undoing the pilot's choice;
+and no endless re-arming: when the vehicle disarms itself QUICK_DISARMS_MAX times in a
+row, each within QUICK_DISARM_S of arming (PX4 disarms a vehicle that does not take off
+after COM_DISARM_PRFLT, e.g. when ~z is below the ground), the node stops arming it.
 """
 
 import enum
@@ -24,6 +27,10 @@ from collections import namedtuple
 OFFBOARD = 'OFFBOARD'
 # PX4 leaves OFFBOARD when setpoints stop for COM_OF_LOSS_T; it needs them faster than 2 Hz.
 MIN_RATE_HZ = 2.0
+# A vehicle that disarms this many times in a row, each time within QUICK_DISARM_S of being
+# seen armed, is not armed again.
+QUICK_DISARMS_MAX = 3
+QUICK_DISARM_S = 30.0
 # Times are floats: an interval that is due within a microsecond counts as due.
 _TIME_TOLERANCE_S = 1e-6
 
@@ -108,6 +115,9 @@ class OffboardLogic:
         self.last_request_s = None   # None until the pre-stream is complete
         self.flying_offboard = False  # has been in OFFBOARD and armed at once
         self.pilot_took_over = False
+        self.armed_since_s = None     # when a setpoint first went out with the vehicle armed
+        self.quick_disarms = 0        # disarms in a row soon after arming
+        self.gave_up_arming = False
 
     def on_state(self, state):
         """Take a new vehicle state; return the messages to log for what changed."""
@@ -127,6 +137,7 @@ class OffboardLogic:
                 lines.append('Vehicle armed')
             elif old.armed and not state.armed and old.connected:
                 lines.append('Vehicle disarmed')
+                lines += self._count_quick_disarm()
         if state.connected and state.armed and state.mode == OFFBOARD:
             self.flying_offboard = True
         elif (self.respect_pilot and self.flying_offboard and state.connected
@@ -136,6 +147,16 @@ class OffboardLogic:
                          % (state.mode, 'armed' if state.armed else 'disarmed'))
         return lines
 
+    def _count_quick_disarm(self):
+        """A disarm while the armed spell was short (the flight, if any, reset the count)."""
+        self.armed_since_s = None
+        self.quick_disarms += 1
+        if self.quick_disarms >= QUICK_DISARMS_MAX and not self.gave_up_arming:
+            self.gave_up_arming = True
+            return ['Vehicle disarmed itself %d times within %.0f s of arming: not arming it again '
+                    '(does it take off? check ~z and the FCU\'s messages)' % (self.quick_disarms, QUICK_DISARM_S)]
+        return []
+
     def should_stream(self):
         """Setpoints flow once the FCU has been connected, and from then on always."""
         return self.streaming
@@ -144,6 +165,11 @@ class OffboardLogic:
         if not self.streaming:
             return
         self.setpoints_sent += 1
+        if self.state.armed:
+            if self.armed_since_s is None:
+                self.armed_since_s = now_s
+            elif now_s - self.armed_since_s >= QUICK_DISARM_S:
+                self.quick_disarms = 0  # it stayed armed: it flew
         if self.last_request_s is None and self.setpoints_sent >= self.prestream_count:
             self.last_request_s = now_s  # the tutorial's `last_req = now()` after the pre-stream
 
@@ -159,7 +185,7 @@ class OffboardLogic:
             return None
         if self.state.mode != OFFBOARD:
             return Request.SET_OFFBOARD
-        if not self.state.armed:
+        if not self.state.armed and not self.gave_up_arming:
             return Request.ARM
         return None
 

@@ -154,3 +154,42 @@ def test_respect_pilot_disarm_counts_as_takeover():
     logic.on_state(FLYING)
     logic.on_state(VehicleState(True, False, 'OFFBOARD'))
     assert logic.next_request(t + 60) is None
+
+
+def test_stops_arming_a_vehicle_that_keeps_disarming_itself():
+    """_z:=-5: PX4 arms, never takes off, disarms after COM_DISARM_PRFLT (10 s); the tutorial's
+    loop would re-arm it every 10 s forever. After 3 such disarms in a row the node stops."""
+    logic = OffboardLogic()
+    t = prestreamed(logic)
+    logic.on_state(OFFBOARD_DISARMED)
+    lines = []
+    for cycle in range(4):
+        t += 5.0
+        assert logic.next_request(t) == (Request.ARM if cycle < 3 else None), 'cycle %d' % cycle
+        if cycle == 3:
+            break
+        logic.on_request_done(t)
+        logic.on_state(FLYING)
+        for _ in range(200):  # 10 s armed on the ground
+            t += 0.05
+            logic.on_setpoint_sent(t)
+        lines += logic.on_state(OFFBOARD_DISARMED)
+    assert any('disarmed itself 3 times' in line for line in lines), lines
+    logic.on_state(CONNECTED)
+    assert logic.next_request(t + 10.0) == Request.SET_OFFBOARD, 'OFFBOARD is still asked for'
+
+
+def test_a_vehicle_that_flew_is_armed_again_after_landing():
+    logic = OffboardLogic()
+    t = prestreamed(logic)
+    logic.on_state(OFFBOARD_DISARMED)
+    for cycle in range(5):  # each time it stays armed 60 s (it flew), then disarms on landing
+        t += 5.0
+        assert logic.next_request(t) == Request.ARM, 'cycle %d' % cycle
+        logic.on_request_done(t)
+        logic.on_state(FLYING)
+        for _ in range(1200):
+            t += 0.05
+            logic.on_setpoint_sent(t)
+        logic.on_state(OFFBOARD_DISARMED)
+    assert not logic.gave_up_arming
