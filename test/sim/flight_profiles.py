@@ -164,6 +164,30 @@ def mission_profile(**kwargs):
     return figures, r.trace
 
 
+# PX4's own mavros_posctl_test square (ENU x east, y north, z up), 1 m acceptance radius
+POSCTL_SQUARE = ((50.0, 50.0, 20.0), (50.0, -50.0, 20.0), (-50.0, -50.0, 20.0), (0.0, 0.0, 20.0))
+
+
+def posctl_square_profile(**kwargs):
+    """PX4's posctl integration test: OFFBOARD and armed on the ground at (0, 0, 0), then the
+    square's corners one after another, each held until within 1 m: the time of each leg."""
+    r = Run(**kwargs)
+    f = r.flight
+    r.run(1.0)
+    r.phase = 'square'
+    r.setpoint = position_setpoint(0.0, 0.0, 0.0)
+    r.run(0.5)
+    f.request_mode('OFFBOARD', r.t)
+    r.run(0.5)
+    assert f.request_arming(True, False, r.t) == M.MAV_RESULT_ACCEPTED
+    figures = {}
+    for leg, (east, north, up) in enumerate(POSCTL_SQUARE, 1):
+        r.setpoint = position_setpoint(north, east, -up)
+        figures['leg_%d_s' % leg] = r.until(
+            lambda st, target=(north, east, -up): math.dist(st.position, target) <= 1.0, 60.0)
+    return figures, r.trace
+
+
 def land_from_height_profile(height_m, **kwargs):
     """Take off to height_m (NAV_TAKEOFF), settle, AUTO.LAND: the time from the land command to landed."""
     r = Run(**kwargs)

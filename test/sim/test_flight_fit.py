@@ -32,6 +32,7 @@ def fly_all():
         'mission': fp.mission_profile(),
         'land_from_20m': fp.land_from_height_profile(20.0),
         'land_from_5m': fp.land_from_height_profile(5.0),
+        'posctl_square': fp.posctl_square_profile(),
     }
 
 

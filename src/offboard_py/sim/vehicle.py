@@ -32,6 +32,7 @@ ATTITUDE_LAG_S = 0.08     # attitude loop (MC_ROLL_P/MC_PITCH_P 4 -> about 0.1 s
 YAW_P = 2.8               # MC_YAW_P
 YAW_RATE_MAX = math.radians(200.0)  # MC_YAWRATE_MAX
 NAN = float('nan')
+TILT_LIMIT_SLEW = 0.2     # rad/s: how fast PX4 lets the tilt limit change (_tilt_limit_slew_rate)
 # PX4's MulticopterLandDetector: hysteresis of its stages and its thrust thresholds
 GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
 LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
@@ -149,6 +150,9 @@ class Vehicle:
         self.takeoff_state = 'disarmed'  # PX4's TakeoffHandling: disarmed, spoolup, ready, rampup, flight
         self.ramp_vz = 0.0            # takeoff ramp: the climb-rate limit now (m/s, up positive)
         self.integral = [0.0, 0.0, 0.0]
+        # PX4 limits the tilt to MPC_TILTMAX_LND until the takeoff is over, then lets the limit
+        # grow to MPC_TILTMAX_AIR at TILT_LIMIT_SLEW rad/s (MulticopterPositionControl)
+        self.tilt_limit = math.radians(params['MPC_TILTMAX_LND'])
         self.ground_contact = self.position[2] >= ground_z
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
@@ -252,7 +256,10 @@ class Vehicle:
         bx, by, bz = -acc[0], -acc[1], GRAVITY
         norm = math.sqrt(bx * bx + by * by + bz * bz)
         bx, by, bz = bx / norm, by / norm, bz / norm
-        tilt_max = math.radians(p['MPC_TILTMAX_AIR'])
+        wanted = p['MPC_TILTMAX_AIR'] if self.takeoff_state == 'flight' else p['MPC_TILTMAX_LND']
+        step = TILT_LIMIT_SLEW * dt
+        self.tilt_limit += _clamp(math.radians(wanted) - self.tilt_limit, -step, step)
+        tilt_max = self.tilt_limit
         if math.acos(_clamp(bz, -1.0, 1.0)) > tilt_max:
             horizontal = math.hypot(bx, by)
             bx, by, bz = bx / horizontal * math.sin(tilt_max), by / horizontal * math.sin(tilt_max), math.cos(tilt_max)
