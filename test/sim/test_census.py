@@ -75,7 +75,9 @@ def test_onboard_rates_and_fields_as_px4_sitl(start_sim):
     assert (odom.frame_id, odom.child_frame_id) == (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_BODY_FRD)
     assert abs(odom.z - pos.z) < 0.05 and abs(odom.q[0]) > 0.99, 'ODOMETRY on the ground: %s' % odom
     assert latest['SERVO_OUTPUT_RAW'].servo1_raw == 1000, 'disarmed motors: 1000 us'
-    assert latest['GPS_RAW_INT'].alt == latest['GLOBAL_POSITION_INT'].alt
+    # The same altitude datum (AMSL, mm), sampled at different instants of a noisy estimate (8 Hz vs 50 Hz)
+    gps_alt, global_alt = latest['GPS_RAW_INT'].alt, latest['GLOBAL_POSITION_INT'].alt
+    assert abs(gps_alt - global_alt) < 500, 'GPS_RAW_INT.alt %d mm, GLOBAL_POSITION_INT.alt %d mm' % (gps_alt, global_alt)
 
 
 def test_answers_as_px4_sitl(start_sim):
