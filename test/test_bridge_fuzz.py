@@ -6,7 +6,6 @@ another system, another component's HEARTBEAT, MAVLink 1 and 2 mixed). Afterward
 
 import random
 import socket
-import time
 
 import rospy
 import rostest
@@ -16,7 +15,7 @@ from pymavlink.dialects.v10 import common as mavlink1
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink as mavlink2
 from offboard_py.testing import mavlink_fuzz
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 ARMED_OFFBOARD = (mavlink2.MAV_MODE_FLAG_SAFETY_ARMED | mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
@@ -59,13 +58,13 @@ class BridgeFuzzTest(OffboardTestCase):
         self.wait_for_connected(vehicle, 30.0)
         self.wait_until(lambda: vehicle.pose is not None, 10.0, 'a pose', [vehicle])
         frames = mavlink_fuzz.frame_count()
-        start = time.monotonic()
+        start = now()
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         sent = mavlink_fuzz.send_paced(sock, ('127.0.0.1', rospy.get_param('~bridge_port')),
                                        hostile_datagrams(random.Random(2026), frames, rospy.get_param('~target_system')))
-        took = time.monotonic() - start
+        took = now() - start
         rospy.loginfo('fuzz: %d datagrams in %.1f s', sent, took)
-        time.sleep(1.5)
+        self.pause(1.5)
         with vehicle.lock:
             during = [s for t, s in vehicle.states if t >= start]
         self.assertEqual(sent, frames)

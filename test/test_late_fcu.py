@@ -1,12 +1,11 @@
 #!/usr/bin/env python3
 """The node started before the vehicle waits (streams nothing), then flies when it appears."""
 
-import time
 
 import rospy
 import rostest
 
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 
@@ -17,7 +16,7 @@ class LateFcuTest(OffboardTestCase):
         vehicle = Vehicle('mavros')
         log = RosoutRecorder('/offb_node_py')
         setpoints = vehicle.setpoints
-        time.sleep(4.0)
+        self.pause(4.0)
         self.assertFalse(vehicle.state.connected, 'no vehicle yet: %s' % vehicle.describe())
         self.assertEqual(setpoints, [], 'nothing is streamed before the FCU is connected')
         self.wait_for_connected(vehicle, 20.0)

@@ -9,12 +9,11 @@ Each time the node asks for OFFBOARD again (re-arming if needed) and the vehicle
 """
 
 import socket
-import time
 
 import rospy
 import rostest
 
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 HEARTBEAT_PERIOD_S = 1.0
@@ -34,7 +33,7 @@ class LinkCutTest(OffboardTestCase):
         except socket.timeout:
             self.fail('the relay did not answer on its control port within 2 s')
         self.assertEqual(reply, b'ok')
-        return time.monotonic()
+        return now()
 
     def test_cuts_in_hover(self):
         vehicle = Vehicle('mavros')
@@ -59,9 +58,9 @@ class LinkCutTest(OffboardTestCase):
         self.assertGreater(node_log.count('OFFBOARD enabled'), requests_before, 'the node did not ask again')
 
         # 2. both ways for 2 s, shorter than conn/timeout: never reported disconnected
-        time.sleep(3.0)
+        self.pause(3.0)
         start = self.cut(2.0)
-        time.sleep(2.0 + HEARTBEAT_PERIOD_S + 0.5)
+        self.pause(2.0 + HEARTBEAT_PERIOD_S + 0.5)
         seen = vehicle.states_since(start)
         self.assertTrue(seen and all(s.connected for _, s in seen), 'disconnected by a 2 s cut (conn/timeout %.0f s)'
                         % conn_timeout_s)
@@ -69,7 +68,7 @@ class LinkCutTest(OffboardTestCase):
 
         # 3. both ways for LONG_CUT_S: disconnected after conn/timeout, the vehicle lands and disarms;
         #    when the link is back the node re-arms it and it climbs to 2 m again
-        time.sleep(3.0)
+        self.pause(3.0)
         with vehicle.lock:
             last_heartbeat = vehicle.states[-1][0]
         start = self.cut(LONG_CUT_S)

@@ -2,12 +2,11 @@
 """Two vehicles at once: both take off together; and respect_pilot against the default."""
 
 import sys
-import time
 
 import rospy
 import rostest
 
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 
@@ -40,7 +39,7 @@ class RespectPilotTest(OffboardTestCase):
         self.wait_until(lambda: all(u.state.mode == 'AUTO.LOITER' for u in both), 5.0, 'both in AUTO.LOITER', both)
         self.wait_until(lambda: default.state.mode == 'OFFBOARD', 15.0,
                         'the default node taking OFFBOARD back', both)
-        time.sleep(6.0)  # longer than the 5 s request interval
+        self.pause(6.0)  # longer than the 5 s request interval
         self.assertEqual(polite.state.mode, 'AUTO.LOITER',
                          'respect_pilot:=true must leave the pilot\'s mode alone (%s)' % polite.describe())
         self.assertTrue(any(line.startswith('Pilot took over') for line in log.lines), log.lines)

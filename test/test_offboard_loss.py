@@ -4,7 +4,6 @@ PX4's failsafe (no RC: Return, which lands at once next to home), comes down und
 lands and disarms. COM_OF_LOSS_T is the test's ~offboard_loss_timeout, which the .test file
 also gives the simulator."""
 
-import time
 
 import rosnode
 import rospy
@@ -13,7 +12,7 @@ from mavros_msgs.msg import ExtendedState
 
 from offboard_py import px4_modes
 from offboard_py.testing.mavlink_listener import MavlinkListener
-from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle, now
 
 PKG = 'offboard_py'
 LAND_SPEED = 0.7         # MPC_LAND_SPEED
@@ -27,13 +26,13 @@ def modes_after(gcs, start):
 class OffboardLossTest(OffboardTestCase):
 
     def test_failsafe_when_node_dies(self):
-        gcs = MavlinkListener(rospy.get_param('~gcs_port'))  # the ground station on the bridge's gcs_url
+        gcs = MavlinkListener(rospy.get_param('~gcs_port'), clock=now)  # the ground station on the bridge's gcs_url
         loss_s = rospy.get_param('~offboard_loss_timeout')  # COM_OF_LOSS_T, as the simulator was given it
         vehicle = Vehicle('mavros')
         setpoints = vehicle.setpoints
         self.wait_for_offboard_and_armed(vehicle, 60.0)
         self.wait_for_altitude(vehicle, 2.0, 0.15, 30.0)
-        time.sleep(1.0)
+        self.pause(1.0)
         rosnode.kill_nodes(['/offb_node_py'])
         self.wait_until(lambda: setpoints and any(m != 'OFFBOARD' for t, m in modes_after(gcs, setpoints[-1])), 5.0,
                         'a mode change after the last setpoint', [vehicle])
@@ -45,7 +44,7 @@ class OffboardLossTest(OffboardTestCase):
                                 % (when - last, loss_s))
         self.assertLessEqual(when - last, loss_s + 0.3, 'left OFFBOARD %.2f s after the last setpoint (COM_OF_LOSS_T '
                              '%.1f s + 0.3)' % (when - last, loss_s))
-        start = time.monotonic()
+        start = now()
         self.wait_for_armed(vehicle, False, 30.0)
         with vehicle.lock:
             descent = [vz for t, vz in vehicle.velocities if t >= start]

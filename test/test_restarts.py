@@ -10,14 +10,13 @@
 import os
 import signal
 import subprocess
-import time
 import xmlrpc.client
 
 import rosgraph
 import rospy
 import rostest
 
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 
@@ -41,10 +40,10 @@ class RestartsTest(OffboardTestCase):
         # the bridge dies
         bridge_before = node_pid('/mavros')
         os.kill(bridge_before, signal.SIGKILL)
-        killed = time.monotonic()
+        killed = now()
         self.wait_until(lambda: vehicle.state.mode not in ('OFFBOARD', ''), 30.0,
                         'the failsafe after the bridge was killed', [vehicle])
-        rospy.loginfo('bridge killed: vehicle in %s after %.1f s', vehicle.state.mode, time.monotonic() - killed)
+        rospy.loginfo('bridge killed: vehicle in %s after %.1f s', vehicle.state.mode, now() - killed)
         self.wait_back_at_2m(vehicle, 'the bridge respawned')
         self.assertNotEqual(node_pid('/mavros'), bridge_before, 'the bridge was not respawned')
         self.assertEqual(node_pid('/offb_node_py'), node_before, 'the node must not be restarted')

@@ -4,14 +4,13 @@
 an unsigned RADIO_STATUS to pull the bridge's link away) change nothing and are counted."""
 
 import socket
-import time
 
 import rospy
 import rostest
 
 from offboard_py import px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 
@@ -33,7 +32,7 @@ class SignedLinkTest(OffboardTestCase):
         land = px4_modes.encode('AUTO.LAND')
         landed_disarmed = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        start = time.monotonic()
+        start = now()
         for _ in range(40):
             sock.sendto(spoof.heartbeat_encode(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, landed_disarmed,
                                                land, mavlink.MAV_STATE_STANDBY).pack(spoof), bridge)
@@ -41,8 +40,8 @@ class SignedLinkTest(OffboardTestCase):
             sock.sendto(gcs.command_long_encode(target, 1, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0,
                                                 0, ARM_DISARM_FORCE_MAGIC, 0, 0, 0, 0, 0).pack(gcs), fcu)
             sock.sendto(gcs.set_mode_encode(target, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, land).pack(gcs), fcu)
-            time.sleep(0.05)
-        time.sleep(1.0)
+            self.pause(0.05)
+        self.pause(1.0)
         with vehicle.lock:
             after = [s for t, s in vehicle.states if t >= start]
         self.assertTrue(after, 'no state published during the spoofing')

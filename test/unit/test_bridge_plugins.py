@@ -122,8 +122,22 @@ class FakeRos:
 
 
 class FakeClock:
+    """The bridge's clock, set by the test. It stands still for HOLD_S of wall time after each setting,
+    then runs on at wall speed, so a wait for an answer that never comes still ends (Bridge.wait
+    watches this clock, not the wall)."""
+
+    HOLD_S = 0.2
+
     def __init__(self, now_s=100.0):
         self.now_s = now_s
+
+    @property
+    def now_s(self):
+        return self._base_s + max(0.0, time.monotonic() - self._set_at - self.HOLD_S)
+
+    @now_s.setter
+    def now_s(self, value):
+        self._base_s, self._set_at = value, time.monotonic()
 
     def __call__(self):
         return self.now_s

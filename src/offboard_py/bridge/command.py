@@ -79,7 +79,7 @@ class Command:
         try:
             params = list(params) + [0.0] * (7 - len(params))
             b.send(b.mav.command_long_encode(b.target_system, b.target_component, cmd, confirmation, *params))
-            if not entry[0].wait(self.timeout_s):
+            if not b.wait(entry[0], self.timeout_s):
                 rospy.logwarn('CMD: command %d: no COMMAND_ACK within %.1f s', cmd, self.timeout_s)
                 return False, mavlink.MAV_RESULT_FAILED
             return entry[1] == mavlink.MAV_RESULT_ACCEPTED, entry[1]

@@ -23,6 +23,8 @@ from offboard_py.bridge import filters
 from offboard_py.bridge.attitude import Attitude
 
 
+WAIT_SLICE_S = 0.02  # wall seconds between looks at a deadline on the bridge's clock
+
 class Bridge:
     def __init__(self, cfg, link, ros, plugins=(), gcs=None, clock=time.monotonic):
         """`link` (and `gcs`) are MavlinkLinks, `ros` gives publisher/subscriber/service/now/is_shutdown,
@@ -39,6 +41,7 @@ class Bridge:
         self._ros = ros
         self._clock = clock
         self._periodic = []  # [period_s, next_s, callback]
+        self._one_shots = []  # (due_s, callback): after_connect
         self.connected = False
         self._connection_listeners = []
         self.attitude = Attitude()
@@ -106,7 +109,18 @@ class Bridge:
     # -- time and connection ------------------------------------------------------------------
 
     def monotonic_s(self):
+        """The bridge's clock (s): monotonic wall time, or ROS time under /use_sim_time (as mavros's
+        ros::Timer and ros::Time follow /clock). Every timeout and period of the plugins is on it."""
         return self._clock()
+
+    def wait(self, event, timeout_s):
+        """event.wait() up to timeout_s of the bridge's clock (in short wall slices, as that clock may run
+        faster or slower than the wall); False on timeout or shutdown."""
+        deadline = self._clock() + timeout_s
+        while not event.wait(WAIT_SLICE_S):
+            if self._clock() >= deadline or self.is_shutdown():
+                return event.is_set()
+        return True
 
     def every(self, period_s, callback):
         """Call callback(now_s) every period_s from the receive thread."""
@@ -139,13 +153,17 @@ class Bridge:
         self._connection_listeners.append(callback)
 
     def after_connect(self, delay_s, callback):
-        """Call callback() delay_s after every new connection (from a timer thread)."""
+        """Call callback() delay_s (bridge clock) after every new connection, in a thread of its own."""
         def start(connected):
             if connected:
-                timer = threading.Timer(delay_s, callback)
-                timer.daemon = True
-                timer.start()
+                self._one_shots.append((self._clock() + delay_s, callback))
         self.on_connection(start)
+
+    def _run_one_shots(self, now_s):
+        due = [task for task in self._one_shots if now_s >= task[0]]
+        for task in due:
+            self._one_shots.remove(task)
+            threading.Thread(target=task[1], name='after-connect', daemon=True).start()
 
     def set_connected(self, connected):
         if connected != self.connected:
@@ -169,7 +187,10 @@ class Bridge:
                 break  # sockets closed at shutdown
             for link in readable:
                 link.receive()
-            self.run_periodic(self._clock())
+            now_s = self._clock()
+            self.run_periodic(now_s)
+            if self._one_shots:
+                self._run_one_shots(now_s)
 
     def stop(self):
         self._running = False

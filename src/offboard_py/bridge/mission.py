@@ -9,7 +9,6 @@ A transfer runs in the service thread; the receive thread hands it the messages.
 
 import queue
 import threading
-import time
 
 import rospy
 from mavros_msgs.msg import Waypoint, WaypointList, WaypointReached
@@ -25,6 +24,7 @@ GLOBAL_FRAMES = frozenset((mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RE
 FRAME_LOCAL_SCALE = 1e4            # MISSION_ITEM_INT: local x/y are metres * 1e4
 STEP_TIMEOUT_S, STEP_RETRIES = 1.0, 3
 PULL_AFTER_CONNECT_S = 2.0
+WAIT_SLICE_S = 0.05  # wall seconds between checks of a deadline on the bridge's clock
 TRANSFER_MESSAGES = ('MISSION_COUNT', 'MISSION_ITEM_INT', 'MISSION_ITEM', 'MISSION_REQUEST_INT', 'MISSION_REQUEST',
                      'MISSION_ACK')
 
@@ -130,15 +130,15 @@ class Mission:
         while tries <= STEP_RETRIES:
             resend()
             tries += 1
-            deadline = time.monotonic() + STEP_TIMEOUT_S
-            while time.monotonic() < deadline:
+            deadline = self.bridge.monotonic_s() + STEP_TIMEOUT_S
+            while self.bridge.monotonic_s() < deadline and not self.bridge.is_shutdown():
                 try:
-                    msg = self.inbox.get(timeout=max(0.0, deadline - time.monotonic()))
+                    msg = self.inbox.get(timeout=WAIT_SLICE_S)
                 except queue.Empty:
-                    break
+                    continue
                 value = accept(msg)
                 if value is PROGRESS:
-                    tries, deadline = 0, time.monotonic() + STEP_TIMEOUT_S
+                    tries, deadline = 0, self.bridge.monotonic_s() + STEP_TIMEOUT_S
                 elif value is not None:
                     return value
         raise TransferError('no answer to %s after %d tries' % (what, STEP_RETRIES + 1))
@@ -248,7 +248,7 @@ class Mission:
         try:
             for _ in range(STEP_RETRIES + 1):
                 b.send(b.mav.mission_set_current_encode(b.target_system, b.target_component, req.wp_seq))
-                if done.wait(STEP_TIMEOUT_S):
+                if b.wait(done, STEP_TIMEOUT_S):
                     return WaypointSetCurrentResponse(success=True)
         finally:
             self.current_wanted = None

@@ -7,6 +7,7 @@ given live in core.py and one module each; this module is their rospy wiring.
 
 import logging
 import sys
+import time
 
 import rospy
 
@@ -90,6 +91,14 @@ class _ToRosout(logging.Handler):
          rospy.logwarn if record.levelno >= logging.WARNING else rospy.loginfo)(text)
 
 
+def ros_clock():
+    """The bridge's clock: ROS time under /use_sim_time (it then follows /clock, as mavros's timers
+    do), else the monotonic clock, which no change of the system time can move."""
+    if rospy.get_param('/use_sim_time', False):
+        return rospy.get_time
+    return time.monotonic
+
+
 def main():
     try:
         wait_for_master('mavros', master_timeout_from_argv(sys.argv))
@@ -106,7 +115,7 @@ def main():
         logging.getLogger('offboard_py').setLevel(logging.INFO)
         cfg = read_config(lambda name, default: rospy.get_param('~' + name, default))
         link, gcs = open_links(cfg)
-        bridge = Bridge(cfg, link, RospyEndpoints(), PLUGINS, gcs=gcs)
+        bridge = Bridge(cfg, link, RospyEndpoints(), PLUGINS, gcs=gcs, clock=ros_clock())
     except (ConfigError, UrlError, OSError) as err:
         rospy.logfatal('mavros bridge: %s', err)
         return 2

@@ -16,7 +16,6 @@ answer to READ_RETRIES reads) gets success=false and an error naming it.
 import collections
 import math
 import threading
-import time
 
 import rospy
 from mavros_msgs.msg import ParamValue
@@ -63,7 +62,7 @@ class Param:
             self.count = msg.param_count
             if msg.param_index != INDEX_UNKNOWN:
                 self.indices.add(msg.param_index)
-            self.last_value_s = time.monotonic()
+            self.last_value_s = self.bridge.monotonic_s()
             self.lock.notify_all()
 
     def complete(self):
@@ -78,17 +77,17 @@ class Param:
             with self.lock:
                 self.indices.clear()
                 self.count = None
-                self.last_value_s = time.monotonic()
+                self.last_value_s = self.bridge.monotonic_s()
             b.send(b.mav.param_request_list_encode(b.target_system, b.target_component))
-            deadline = time.monotonic() + LIST_TIMEOUT_S
+            deadline = b.monotonic_s() + LIST_TIMEOUT_S
             with self.lock:
-                while not self.complete() and time.monotonic() < deadline and not b.is_shutdown():
+                while not self.complete() and self.bridge.monotonic_s() < deadline and not b.is_shutdown():
                     self.lock.wait(0.2)
-                    if self.count is not None and time.monotonic() - self.last_value_s > QUIET_S:
+                    if self.count is not None and self.bridge.monotonic_s() - self.last_value_s > QUIET_S:
                         missing = sorted(set(range(self.count)) - self.indices)[:50]
                         for index in missing:
                             b.send(b.mav.param_request_read_encode(b.target_system, b.target_component, b'', index))
-                        self.last_value_s = time.monotonic()
+                        self.last_value_s = self.bridge.monotonic_s()
                 return len(self.indices)
 
     def _pull(self, req):
@@ -127,9 +126,9 @@ class Param:
             with self.lock:
                 before = self.arrivals[param_id]
             b.send(b.mav.param_request_read_encode(b.target_system, b.target_component, param_id.encode(), -1))
-            deadline = time.monotonic() + READ_TIMEOUT_S
+            deadline = b.monotonic_s() + READ_TIMEOUT_S
             with self.lock:
-                while time.monotonic() < deadline:
+                while self.bridge.monotonic_s() < deadline and not b.is_shutdown():
                     if self.arrivals[param_id] != before:
                         return self.values[param_id]
                     self.lock.wait(0.05)
@@ -170,9 +169,9 @@ class Param:
                 before = self.arrivals[req.param_id]
             b.send(b.mav.param_set_encode(b.target_system, b.target_component, req.param_id.encode(), wire,
                                           param_type))
-            deadline = time.monotonic() + SET_TIMEOUT_S
+            deadline = b.monotonic_s() + SET_TIMEOUT_S
             with self.lock:
-                while time.monotonic() < deadline:
+                while self.bridge.monotonic_s() < deadline and not b.is_shutdown():
                     if self.arrivals[req.param_id] != before:
                         value, vtype = self.values[req.param_id]
                         same = value == wanted or (not param_codec.is_integer(vtype) and abs(value - wanted) < 1e-6 *

@@ -6,7 +6,8 @@ with PX4's normal (GCS) stream set; each sends to whoever talks to it once someo
 Both links take the same requests through one set of handlers, and a reply goes back on
 the link its request came from. Every COMMAND_LONG/COMMAND_INT gets a COMMAND_ACK through a
 table {MAV_CMD: handler}; what is addressed to another system is ignored. The flight stack
-(sim.flight) steps at `rate_hz` in real time; after each step the streams due on each link
+(sim.flight) steps at `rate_hz` of its clock (real time, or simulated time at `speed` times
+real time: offboard_py.simclock); after each step the streams due on each link
 are sent (each message built once per step, whatever the number of links), then what the
 flight stack said (mode changes, texts, mission progress) goes out on both links.
 """
@@ -20,6 +21,7 @@ import time
 from offboard_py import param_codec, px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
+from offboard_py.simclock import SimClock
 from offboard_py.signing import SigningKeyError, read_signing_key, write_signing_key
 from offboard_py.sim import events as ev
 from offboard_py.sim import mission as missions
@@ -45,9 +47,11 @@ REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_I
 
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
-                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=time.monotonic,
+                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, clock=None,
                  signing_key_file=None, allowed_systems=(), gcs=True, gcs_port=None, gcs_remote_port=None):
-        self.clock = clock
+        # Every timer, rate and time_boot_ms runs on this clock: speed x real time
+        self.clock = SimClock(1.0) if clock is None else clock
+        clock = self.clock
         self.system_id = instance + 1
         self.rate_hz = rate_hz
         now = clock()
@@ -401,16 +405,19 @@ class SimulatedPx4:
     # -- the loop --------------------------------------------------------------------------
 
     def run(self, duration_s=None):
-        """Run in real time until stop() (or for duration_s)."""
+        """Run on the clock until stop() (or for duration_s of its seconds)."""
         period = 1.0 / self.rate_hz
+        speed = getattr(self.clock, 'speed', 1.0)
         self.running = True
         next_s = self.clock()
         end_s = None if duration_s is None else next_s + duration_s
         for link, kind in zip(self.links, ('onboard', 'GCS')):
             log.info('simulated PX4 sysid %d, %s link on udp %s:%d -> %s:%d', self.system_id, kind, link.bind[0],
                      link.bind[1], *link.remote)
+        if speed != 1.0:
+            log.info('simulated time at %gx real time', speed)
         while self.running and (end_s is None or self.clock() < end_s):
-            timeout = max(0.0, next_s - self.clock())
+            timeout = max(0.0, next_s - self.clock()) / speed
             readable, _, _ = select.select(self.links, [], [], timeout)
             for link in readable:
                 link.receive()
@@ -418,7 +425,10 @@ class SimulatedPx4:
             if now >= next_s:
                 self.step(period)
                 next_s += period
-                if now - next_s > 0.25:  # stalled (suspended, overloaded): resynchronise
+                if now - next_s > 0.25 * speed:  # stalled a quarter second (suspended, overloaded): resynchronise
+                    if speed != 1.0:
+                        log.warning('the simulator fell %.2f s behind its clock at %gx: this machine cannot keep up '
+                                    'at that speed', now - next_s, speed)
                     next_s = now + period
 
     def stop(self):

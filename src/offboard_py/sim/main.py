@@ -12,6 +12,7 @@ import sys
 import time
 
 from offboard_py.signing import SigningKeyError
+from offboard_py.simclock import SimClock, SpeedError, parse_speed
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.params import ParamRejected
@@ -59,6 +60,13 @@ def _instance(text):
     return value
 
 
+def _speed(text):
+    try:
+        return parse_speed(text, '--speed')
+    except SpeedError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def _system_ids(text):
     try:
         ids = [int(v) for v in text.split(',') if v.strip()]
@@ -94,6 +102,9 @@ def parser():
     p.add_argument('--ideal', action='store_true',
                    help='an ideal vehicle: no estimator noise, no hover wander, local z 0 on the ground '
                         '(default: PX4 SITL\'s, seeded by the system id so runs repeat)')
+    p.add_argument('--speed', type=_speed, default=1.0, metavar='K',
+                   help='simulated time at K x real time (K > 0, default 1): the model, timers, streams and '
+                        'time_boot_ms all run K times faster; the ROS side follows /clock (sim_clock)')
     p.add_argument('--rate', type=float, default=100.0, help='model and controller rate in Hz (default 100)')
     p.add_argument('--setpoint-log', metavar='DIR',
                    help='at exit, write DIR/setpoints-N.txt: arrival time (ns) and time_boot_ms of each '
@@ -119,7 +130,7 @@ def main(argv=None):
         home = LocalFrame(*args.home).to_global(args.spawn[1], args.spawn[0], 0.0)
         sim = SimulatedPx4(instance=args.instance, home=home, bind_host=args.bind,
                            local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
-                           ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate,
+                           ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate, clock=SimClock(args.speed),
                            signing_key_file=args.signing_key, allowed_systems=args.allow_sysid,
                            gcs=not args.no_gcs, gcs_port=args.gcs_port, gcs_remote_port=args.gcs_remote_port)
     except (ParamRejected, SigningKeyError) as err:

@@ -16,7 +16,8 @@ import random
 import select
 import socket
 import sys
-import time
+
+from offboard_py.simclock import SimClock, SpeedError
 
 
 def parse_args(argv):
@@ -30,6 +31,8 @@ def parse_args(argv):
     p.add_argument('--cut', action='append', default=[], metavar='START:SECONDS', help='cut the link')
     p.add_argument('--control-port', type=int, help='UDP port for "cut SECONDS [direction]" commands')
     p.add_argument('--seed', type=int, default=1)
+    p.add_argument('--speed', default='1', metavar='K',
+                   help='simulated time at K x real time (as sim_px4 --speed): cuts and delays are in its seconds')
     args = p.parse_args([a for a in argv if ':=' not in a])
     for name in ('drop', 'duplicate'):
         if not 0.0 <= getattr(args, name) <= 1.0:
@@ -60,6 +63,11 @@ def parse_control(text):
 
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        clock = SimClock(args.speed)
+    except SpeedError as err:
+        print('lossy_relay: %s' % err, file=sys.stderr)
+        return 2
     rng = random.Random(args.seed)
     sides = {}
     for name, port in (('fcu', args.fcu_port), ('bridge', args.bridge_port)):
@@ -76,13 +84,13 @@ def main(argv=None):
     other = {'fcu': 'bridge', 'bridge': 'fcu'}
     queue = []  # (due, seq, side to send from, data)
     seq = 0
-    start = time.monotonic()
+    start = clock.now()
     stats = {'forwarded': 0, 'dropped': 0, 'duplicated': 0, 'cut': 0}
     try:
         while True:
-            timeout = max(0.0, queue[0][0] - time.monotonic()) if queue else 0.5
+            timeout = clock.wall_s(max(0.0, queue[0][0] - clock.now())) if queue else 0.5
             readable, _, _ = select.select(list(sides.values()) + ([control] if control else []), [], [], timeout)
-            now = time.monotonic()
+            now = clock.now()
             if control in readable:
                 text, addr = control.recvfrom(1000)
                 try:
@@ -116,7 +124,7 @@ def main(argv=None):
                         due = now + (args.delay_ms + rng.uniform(0.0, args.jitter_ms)) / 1000.0
                         seq += 1
                         heapq.heappush(queue, (due, seq, other[name], data))
-            while queue and queue[0][0] <= time.monotonic():
+            while queue and queue[0][0] <= clock.now():
                 _, _, side, data = heapq.heappop(queue)
                 if peers[side] is not None:
                     try:

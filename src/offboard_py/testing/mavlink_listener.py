@@ -14,7 +14,9 @@ from offboard_py.dialect import mavlink
 class MavlinkListener:
     """Binds `port`; `received` holds (arrival time, message); send() goes to `remote_port`."""
 
-    def __init__(self, port, remote_port=None, src_system=1, src_component=1):
+    def __init__(self, port, remote_port=None, src_system=1, src_component=1, clock=time.monotonic):
+        """`clock` stamps arrivals: pass the test's ROS clock (rostest_common.now) in simulated time."""
+        self.clock = clock
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(('127.0.0.1', port))
         self.sock.settimeout(0.1)
@@ -35,7 +37,7 @@ class MavlinkListener:
                 data, sender = self.sock.recvfrom(4096)
             except socket.timeout:
                 continue
-            now = time.monotonic()
+            now = self.clock()
             for msg in parser.parse_buffer(data) or []:
                 if msg.get_type() != 'BAD_DATA':
                     with self.lock:
@@ -46,7 +48,7 @@ class MavlinkListener:
         self.sock.sendto(msg.pack(self.mav), self.remote)
 
     def of_type(self, name, since=None):
-        """Messages of type `name` in arrival order, those after monotonic time `since` if given."""
+        """Messages of type `name` in arrival order, those after time `since` (of the clock) if given."""
         with self.lock:
             return [m for t, m in self.received if m.get_type() == name and (since is None or t > since)]
 

@@ -4,6 +4,12 @@
 `uav1/mavros`, ...) and keeps what it saw; `OffboardTestCase` offers waits with deadlines
 that fail with what was seen (mode, armed, position) rather than a bare assert, and
 service calls bounded in time. Needs rospy and a node (rospy.init_node) in the caller.
+
+Every time here is ROS time (`now()`, `OffboardTestCase.pause`): in simulated time
+(sim_clock.launch, /use_sim_time) deadlines and durations are simulated seconds, so a
+scenario asserts the same bounds at every speed. The clock guard fails a scenario whose ROS
+side has fallen behind the vehicles' clock (the machine cannot keep up at that speed) rather
+than letting it report a failsafe that the lag, not the vehicle, caused.
 """
 
 import threading
@@ -17,6 +23,52 @@ from mavros_msgs.srv import CommandBool, SetMode
 from rosgraph_msgs.msg import Log
 
 from offboard_py import frames
+
+CLOCK_START_TIMEOUT_S = 30.0  # wall seconds for the first /clock in simulated time
+MAX_CLOCK_LAG_S = 0.5  # simulated seconds the ROS side may trail the vehicles (COM_OF_LOSS_T is 1 s)
+
+
+def _sim_time():
+    return rospy.get_param('/use_sim_time', False) is True
+
+
+def now():
+    """ROS time in seconds; in simulated time, waits (bounded) for the first /clock."""
+    t = rospy.get_time()
+    if t == 0.0 and _sim_time():
+        deadline = time.monotonic() + CLOCK_START_TIMEOUT_S
+        while t == 0.0 and time.monotonic() < deadline and not rospy.is_shutdown():
+            time.sleep(0.01)
+            t = rospy.get_time()
+        if t == 0.0:
+            raise AssertionError('no /clock within %.0f s although /use_sim_time is set: is sim_clock running?'
+                                 % CLOCK_START_TIMEOUT_S)
+    return t
+
+
+class ClockGuard:
+    """How far this node's ROS time trails the vehicles' clock (speed x the monotonic clock,
+    offboard_py.simclock) in simulated time; 0 in real time."""
+
+    def __init__(self):
+        self.speed = float(rospy.get_param('/sim_clock/speed', 1.0)) if _sim_time() else 1.0
+        self.worst_s = 0.0
+
+    def lag_s(self):
+        if self.speed == 1.0:
+            return 0.0
+        lag = self.speed * time.monotonic() - now()
+        self.worst_s = max(self.worst_s, lag)
+        return lag
+
+    def problem(self):
+        """None, or why this run cannot be trusted at its speed."""
+        lag = self.lag_s()
+        if lag <= MAX_CLOCK_LAG_S:
+            return None
+        return ('the ROS side is %.2f s (simulated) behind the vehicles\' clock at %gx: this machine cannot keep '
+                'up at that speed, so what the scenario sees now is the machine\'s doing, not the vehicle\'s; '
+                'run it slower (OFFBOARD_PY_SPEED=1 is real time)' % (lag, self.speed))
 
 
 class Vehicle:
@@ -46,10 +98,10 @@ class Vehicle:
     def _on_state(self, msg):
         with self.lock:
             self.state = msg
-            self.states.append((time.monotonic(), msg))
+            self.states.append((now(), msg))
 
     def _on_setpoint(self, _msg):
-        self.setpoints.append(time.monotonic())
+        self.setpoints.append(now())
 
     def _on_extended(self, msg):
         self.extended_state = msg
@@ -57,15 +109,15 @@ class Vehicle:
     def _on_pose(self, msg):
         with self.lock:
             self.pose = msg
-            self.poses.append((time.monotonic(), msg.pose.position.z))
+            self.poses.append((now(), msg.pose.position.z))
 
     def _on_velocity(self, msg):
         with self.lock:
             self.velocity = msg
-            self.velocities.append((time.monotonic(), msg.twist.linear.z))
+            self.velocities.append((now(), msg.twist.linear.z))
 
     def states_since(self, start):
-        """(time, State) received at or after monotonic time `start`."""
+        """(time, State) received at or after ROS time `start`."""
         with self.lock:
             return [(t, s) for t, s in self.states if t >= start]
 
@@ -86,14 +138,36 @@ class Vehicle:
 
 
 class OffboardTestCase(unittest.TestCase):
-    """Waits with deadlines and messages that say what was seen."""
+    """Waits with deadlines (ROS time) and messages that say what was seen."""
+
+    clock_guard = None
+
+    def guard(self):
+        """Fail now if the ROS side cannot keep up with the simulated clock."""
+        if self.clock_guard is None:
+            OffboardTestCase.clock_guard = ClockGuard()
+        problem = self.clock_guard.problem()
+        if problem:
+            self.fail(problem)
+
+    def pause(self, duration_s):
+        """Let duration_s of ROS time pass, watching the clock guard."""
+        end = now() + duration_s
+        while not rospy.is_shutdown():
+            self.guard()
+            left = end - now()
+            if left <= 0:
+                return
+            rospy.sleep(min(left, 0.1))
 
     def wait_until(self, predicate, timeout_s, what, vehicles=()):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline and not rospy.is_shutdown():
+        deadline = now() + timeout_s
+        while now() < deadline and not rospy.is_shutdown():
             if predicate():
                 return True
-            time.sleep(0.05)
+            self.guard()
+            rospy.sleep(0.05)
+        self.guard()
         seen = '; '.join(v.describe() for v in vehicles) or 'nothing'
         self.fail('%s did not happen within %.0f s. Seen: %s' % (what, timeout_s, seen))
 
@@ -122,8 +196,8 @@ class OffboardTestCase(unittest.TestCase):
 
     def assert_holds(self, vehicle, z_m, tolerance_m, duration_s):
         """Every pose for duration_s stays within tolerance of z_m."""
-        start = time.monotonic()
-        time.sleep(duration_s)
+        start = now()
+        self.pause(duration_s)
         with vehicle.lock:
             samples = [z for t, z in vehicle.poses if t >= start]
         self.assertGreater(len(samples), duration_s * 10, 'too few poses (%d) in %.0f s' % (len(samples), duration_s))
@@ -134,10 +208,10 @@ class OffboardTestCase(unittest.TestCase):
 
     def call_service(self, proxy, timeout_s, **request):
         """proxy(**request), failing with the service's name when it is not there, or has not
-        answered, within timeout_s in all. A rospy.ServiceException from the call is raised."""
-        deadline = time.monotonic() + timeout_s
+        answered, within timeout_s (ROS time) in all. A rospy.ServiceException from the call is raised."""
+        deadline = now() + timeout_s
         try:
-            proxy.wait_for_service(timeout_s)
+            proxy.wait_for_service(timeout_s)  # wall seconds: at least as long as timeout_s of a faster clock
         except rospy.ROSException:
             self.fail('service %s not available within %.1f s' % (proxy.resolved_name, timeout_s))
         outcome = []
@@ -149,7 +223,8 @@ class OffboardTestCase(unittest.TestCase):
                 outcome.append((False, err))
         worker = threading.Thread(target=call, daemon=True)
         worker.start()
-        worker.join(max(0.0, deadline - time.monotonic()))
+        while worker.is_alive() and now() < deadline and not rospy.is_shutdown():
+            worker.join(0.02)
         if not outcome:
             self.fail('service %s%r did not answer within %.1f s' % (proxy.resolved_name, request, timeout_s))
         ok, value = outcome[0]

@@ -1,0 +1,113 @@
+"""sim_clock: publishes /clock for a run in simulated time (offboard_py.simclock).
+
+The simulated PX4s step on `speed` x the host's monotonic clock; this node publishes the
+same formula on /clock, so every ROS node with /use_sim_time (rospy timers, rospy.Rate,
+the bridge's timeouts, offb_node's 5 s request spacing) runs on the vehicles' seconds. One
+sim_clock serves every vehicle of a ROS master: they compute the same clock.
+
+Ticks are every `~period` simulated seconds (default 0.01 s: 100 Hz of simulated time, what
+gazebo_ros publishes), on a grid of that period, never backwards.
+
+The guard: a tick published more than `~max_lag` simulated seconds late means this
+machine cannot keep the ROS side up with the vehicles at this speed; the node logs an error
+saying so (and how late), and /sim_clock/lag_max (a parameter) carries the worst lag seen
+for tests to check.
+"""
+
+import sys
+import time
+
+import rospy
+from rosgraph_msgs.msg import Clock
+
+from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
+from offboard_py.simclock import SimClock, SpeedError, parse_speed
+
+NODE_NAME = 'sim_clock'
+DEFAULT_PERIOD_S = 0.01
+DEFAULT_MAX_LAG_S = 0.25
+LAG_PARAM = '/sim_clock/lag_max'
+
+
+class ClockTicks:
+    """The grid of /clock values, in integer nanoseconds so a tick is exact. Pure."""
+
+    def __init__(self, period_s, start_s):
+        self.period_ns = max(1, int(round(period_s * 1e9)))
+        self.next_ns = (int(start_s * 1e9) // self.period_ns + 1) * self.period_ns
+        self.lag_max_s = 0.0
+
+    @property
+    def next_s(self):
+        return self.next_ns / 1e9
+
+    def due(self, now_s):
+        """(tick_ns, late_s): the latest grid point passed by now_s, or None while none is due.
+        Missed ticks are skipped: /clock never runs backwards and never repeats."""
+        now_ns = int(now_s * 1e9)
+        if now_ns < self.next_ns:
+            return None
+        late_s = (now_ns - self.next_ns) / 1e9
+        self.lag_max_s = max(self.lag_max_s, late_s)
+        tick_ns = now_ns // self.period_ns * self.period_ns
+        self.next_ns = tick_ns + self.period_ns
+        return tick_ns, late_s
+
+
+def _read_float(name, default, check, what):
+    value = rospy.get_param(name, default)
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise SpeedError('parameter %s must be %s, got %r' % (name, what, value)) from None
+    if not check(value):
+        raise SpeedError('parameter %s must be %s, got %r' % (name, what, value))
+    return value
+
+
+def main():
+    try:
+        wait_for_master(NODE_NAME, master_timeout_from_argv(sys.argv))
+    except (ValueError, MasterTimeout) as err:
+        print(err, file=sys.stderr)
+        return 2 if isinstance(err, ValueError) else 1
+    except KeyboardInterrupt:
+        return 0
+    try:
+        rospy.init_node(NODE_NAME)
+        speed = parse_speed(rospy.get_param('~speed', 1.0), 'parameter ~speed')
+        period_s = _read_float('~period', DEFAULT_PERIOD_S, lambda v: 0.0005 <= v <= 1.0, 'seconds in 0.0005..1')
+        max_lag_s = _read_float('~max_lag', DEFAULT_MAX_LAG_S, lambda v: v > 0.0, 'seconds > 0')
+    except SpeedError as err:
+        rospy.logfatal('%s', err)
+        return 2
+    except (rospy.ROSException, KeyboardInterrupt):
+        return 0
+    if not rospy.get_param('/use_sim_time', False):
+        rospy.logwarn('sim_clock: /use_sim_time is not set: ROS nodes will not follow /clock')
+    clock = SimClock(speed)
+    ticks = ClockTicks(period_s, clock.now())
+    publisher = rospy.Publisher('/clock', Clock, queue_size=10)
+    rospy.set_param(LAG_PARAM, 0.0)
+    rospy.loginfo('sim_clock: /clock at %gx real time, a tick every %g s of simulated time', speed, period_s)
+    message = Clock()
+    reported_lag_s = 0.0
+    try:
+        while not rospy.core.is_shutdown():
+            now_s = clock.now()
+            due = ticks.due(now_s)
+            if due is None:
+                time.sleep(clock.wall_s(ticks.next_s - now_s))
+                continue
+            tick_ns, late_s = due
+            message.clock.secs, message.clock.nsecs = divmod(tick_ns, 1000000000)
+            publisher.publish(message)
+            if late_s > max_lag_s and late_s > 2 * reported_lag_s:
+                reported_lag_s = late_s
+                rospy.set_param(LAG_PARAM, ticks.lag_max_s)
+                rospy.logerr('sim_clock: /clock fell %.2f s (simulated) behind the vehicles at %gx: this machine '
+                             'cannot keep the ROS side up at that speed; failsafes seen now are the machine\'s, '
+                             'not the vehicle\'s (lower the speed)', late_s, speed)
+    except (rospy.ROSException, KeyboardInterrupt):
+        pass
+    return 0
