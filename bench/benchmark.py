@@ -25,6 +25,7 @@ from mavros_msgs.msg import State
 
 from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.phases import PhaseWatcher
+from offboard_py.simclock import SimClock, SpeedError, parse_speed
 from offboard_py.streamstats import latencies_ms, percentile, stream_quality
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
@@ -35,8 +36,8 @@ CLK_TCK = os.sysconf('SC_CLK_TCK')
 class Watch:
     """The phases of one vehicle (offboard_py.phases), and optionally its setpoint header stamps."""
 
-    def __init__(self, ns, t0, stamps=None):
-        self.watcher = PhaseWatcher(t0)
+    def __init__(self, ns, t0, stamps=None, clock=time.monotonic):
+        self.watcher = PhaseWatcher(t0, clock=clock)
         self.subs = [rospy.Subscriber(ns + '/mavros/state', State, self.watcher.on_state),
                      rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self.watcher.on_pose)]
         if stamps is not None:
@@ -83,15 +84,19 @@ def rss_mb(pid):
     return None
 
 
-def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0):
-    """Fly n vehicles to 2 m, hover duration_s, and measure."""
-    t0 = time.monotonic()
-    launch_log = open(os.path.join(logdir, 'launch-%d.log' % n), 'w')
+def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0):
+    """Fly n vehicles to 2 m, hover duration_s, and measure. At another speed than 1 the stack runs in
+    simulated time: the hover lasts duration_s simulated seconds and the stream is timed on that clock
+    (the simulator logs arrivals on it, the node stamps on /clock)."""
+    clock = SimClock(speed)
+    # arrivals as the simulator logs them: Unix ns in real time, simulated ns otherwise
+    now_ns = time.time_ns if clock.real_time else lambda: int(clock.now() * 1e9)
+    launch_log = open(os.path.join(logdir, 'launch-%d-%g.log' % (n, speed)), 'w')
     launch = subprocess.Popen(['roslaunch', 'offboard_py', 'multi_uav.launch', 'n:=%d' % n, 'log_output:=log',
-                               'sim_args:=--setpoint-log %s' % logdir],
+                               'sim_args:=--setpoint-log %s' % logdir, 'speed:=%g' % speed],
                               stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
     stamps = [] if latency else None
-    watches = [Watch('/uav%d' % i, t0, stamps if i == 0 else None) for i in range(n)]
+    watches = [Watch('/uav%d' % i, clock.now(), stamps if i == 0 else None, clock) for i in range(n)]
     try:
         deadline = time.monotonic() + startup_timeout_s
         while not all('hover' in w.phases for w in watches):
@@ -101,11 +106,11 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0):
             time.sleep(0.2)
         pids = processes(n)
         cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
-        window = (time.time_ns(), time.monotonic())
-        time.sleep(duration_s)
+        window = (now_ns(), time.monotonic())
+        clock.sleep(duration_s)
         cpu = {k: (cpu_seconds(p) - cpu0[k]) / (time.monotonic() - window[1]) * 100.0 for k, p in pids.items()}
         rss = {k: rss_mb(p) for k, p in pids.items()}
-        window_end = time.time_ns()
+        window_end = now_ns()
     finally:
         for w in watches:
             w.close()
@@ -141,12 +146,19 @@ def main():
     p.add_argument('--duration', type=float, default=60.0, help='hover seconds measured for one vehicle (60)')
     p.add_argument('--scale', default='1,2,4,8,16,24,32', help='vehicle counts to try, in order (1,2,4,8,16,24,32)')
     p.add_argument('--scale-duration', type=float, default=20.0, help='hover seconds per scaling step (20)')
+    p.add_argument('--speed', default='5',
+                   help='also measure one vehicle in simulated time at this speed, the setpoint stream timed in '
+                        'simulated seconds beside real time (default 5, what ./run test uses; 1: skip)')
     p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench.json'), help='JSON output')
     args = p.parse_args(rospy.myargv()[1:])
     try:
         scale = [int(v) for v in args.scale.split(',') if v.strip()]
     except ValueError:
         p.error('--scale takes whole numbers separated by commas, got %r' % args.scale)
+    try:
+        args.speed = parse_speed(args.speed, '--speed')
+    except SpeedError as err:
+        p.error(str(err))
     if not scale or min(scale) < 1 or max(scale) > 99 or args.duration <= 1 or args.scale_duration <= 1:
         p.error('--scale values must be 1..99 and durations above 1 s')
     logdir = tempfile.mkdtemp(prefix='offboard_bench_')
@@ -170,6 +182,34 @@ def main():
         if core is not None:
             os.killpg(core.pid, signal.SIGINT)
             core.wait(timeout=30)
+
+
+def _measure_speed(args, logdir, single):
+    """One vehicle in simulated time at args.speed, its stream beside the real-time run's."""
+    print('one vehicle in simulated time at %gx, %.0f simulated s of hover ...' % (args.speed, args.duration),
+          flush=True)
+    sped = run(1, args.duration, logdir, latency=True, speed=args.speed)[0]
+    rows = [('setpoint rate at the FCU (Hz)', 'rate_hz', 3), ('inter-arrival p50 (ms)', 'p50_ms', 1),
+            ('inter-arrival p99 (ms)', 'p99_ms', 1), ('inter-arrival max (ms)', 'max_ms', 1),
+            ('gaps over 100 ms', 'gaps_over_100ms', 0)]
+    lines = ['| setpoint stream (1 vehicle) | real time | simulated time at %gx (simulated ms) | target |'
+             % args.speed, '|---|---|---|---|']
+    targets = {'rate_hz': '20.0 +- 5 %', 'p99_ms': '<= 55', 'max_ms': '<= 100', 'gaps_over_100ms': '0'}
+    for label, key, digits in rows:
+        lines.append('| %s | %s | %s | %s |' % (label, fmt(single['stream'][key], digits),
+                                                 fmt(sped['stream'][key], digits) if sped['stream'] else '-',
+                                                 targets.get(key, '')))
+    lat_real, lat_sped = single['latency_ms'], sped['latency_ms']
+    lines.append('| latency ROS publish -> FCU p99 (ms) | %s | %s | |' % (fmt(lat_real['p99'], 2),
+                                                                         fmt(lat_sped['p99'], 2)))
+    total = sum(v for v in sped['cpu_pct'].values() if v is not None)
+    lines.append('| whole stack CPU (%% of one core, wall) | %s %% | %s %% | |'
+                 % (fmt(sum(v for v in single['cpu_pct'].values() if v is not None)), fmt(total)))
+    lines.append('| start -> hover (simulated s) | %s | %s | |'
+                 % (fmt(single['phases_s'].get('hover')), fmt(sped['phases_s'].get('hover'))))
+    print('\n'.join(lines), flush=True)
+    sped['table'] = lines
+    return sped
 
 
 def _measure(args, scale, logdir):
@@ -202,6 +242,8 @@ def _measure(args, scale, logdir):
     lines.append('| start -> connected -> OFFBOARD -> armed -> hover (0.1 m) | %s / %s / %s / %s s | | |'
                  % tuple(fmt(ph.get(k)) for k in ('connected', 'offboard', 'armed', 'hover')))
     print('\n'.join(lines), flush=True)
+    if args.speed != 1.0:
+        result['sim_time'] = _measure_speed(args, logdir, single)
     steps = []
     largest = None
     for n in scale:

@@ -20,6 +20,7 @@ import time
 
 from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.phases import PhaseWatcher
+from offboard_py.simclock import SimClock, SpeedError, parse_speed
 
 HOLD_TOLERANCE_M = 0.1
 MASTER_TIMEOUT_S = 30.0
@@ -33,8 +34,8 @@ EVENT_LABELS = {'connected': 'FCU connected', 'offboard': 'OFFBOARD', 'armed': '
 class Recorder:
     """What the demo saw, with times relative to its start: the phases, altitude and setpoint."""
 
-    def __init__(self, t0):
-        self.phases = PhaseWatcher(t0)
+    def __init__(self, t0, clock=time.monotonic):
+        self.phases = PhaseWatcher(t0, clock=clock)
         self.lock = threading.Lock()
         self.altitude = []   # (t, z ENU)
         self.setpoint = []   # (t, z ENU)
@@ -110,11 +111,21 @@ def plot(recorder, path):
     plt.close(fig)
 
 
+def _speed(text):
+    try:
+        return parse_speed(text, '--speed')
+    except SpeedError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def parse_args(argv):
     p = argparse.ArgumentParser(prog='takeoff_demo.py', description=__doc__.split('\n\n')[0])
     p.add_argument('--plot', default=os.path.join(os.getcwd(), 'out', 'takeoff.png'), help='PNG to write')
     p.add_argument('--hold', type=float, default=3.0, help='seconds at the setpoint before the plot (default 3)')
     p.add_argument('--timeout', type=float, default=120.0, help='give up after this many seconds (default 120)')
+    p.add_argument('--speed', type=_speed, default=1.0, metavar='K',
+                   help='simulated time at K x real time (default 1: real time); --hold and --timeout and the '
+                        'times shown are then simulated seconds')
     p.add_argument('--keep-flying', action='store_true', help='keep flying after the plot, until Ctrl-C')
     p.add_argument('--bag', metavar='FILE', help='record the flight to this rosbag')
     p.add_argument('--log', default=os.path.join(os.getcwd(), 'out', 'demo-launch.log'),
@@ -127,6 +138,10 @@ def parse_args(argv):
     bad = [a for a in args.launch_args if ':=' not in a]
     if bad:
         p.error('launch arguments must look like name:=value, got %s' % ' '.join(bad))
+    if any(a.startswith('speed:=') for a in args.launch_args):
+        p.error('give the speed as --speed K (the demo times the flight on that clock), not speed:=')
+    if args.speed != 1.0:
+        args.launch_args.append('speed:=%g' % args.speed)
     return args
 
 
@@ -157,7 +172,8 @@ def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
     tty = sys.stdout.isatty()
-    t0 = time.monotonic()
+    clock = SimClock(args.speed)
+    t0 = clock.now()
     log = open(args.log, 'w')
     launch = subprocess.Popen(['roslaunch', 'offboard_py', 'start_offb.launch'] + args.launch_args,
                               stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
@@ -187,14 +203,15 @@ def main(argv=None):
             print('interrupted while waiting for the ROS master')
             return 1
         rospy.init_node('takeoff_demo', disable_signals=True)
-        rec = Recorder(t0)
+        rec = Recorder(t0, clock)
         rospy.Subscriber('/mavros/state', State, rec.phases.on_state)
         rospy.Subscriber('/mavros/local_position/pose', PoseStamped, rec.on_pose)
         rospy.Subscriber('/mavros/setpoint_position/local', PoseStamped, rec.on_setpoint)
         if args.bag:
             bag = subprocess.Popen(['rosbag', 'record', '-q', '-O', args.bag] + BAG_TOPICS,
                                    stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-        print('takeoff demo: offb_node -> mavros bridge -> simulated PX4 (node output: %s)' % args.log)
+        print('takeoff demo: offb_node -> mavros bridge -> simulated PX4%s (node output: %s)'
+              % ('' if clock.real_time else ', simulated time at %gx' % args.speed, args.log))
         plotted = False
         last_line = 0.0
         while not interrupted:

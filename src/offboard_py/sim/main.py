@@ -20,13 +20,15 @@ from offboard_py.sim.params import ParamRejected
 
 class SetpointLog:
     """For the benchmark: the arrival time (ns) and time_boot_ms of each accepted setpoint,
-    kept in memory and written at exit, so the receive path only appends a pair."""
+    kept in memory and written at exit, so the receive path only appends a pair. Arrivals are
+    on ROS's clock: Unix time in real time, the simulated clock (ns) at any other speed."""
 
-    def __init__(self, path):
+    def __init__(self, path, clock=None):
         self.path, self.rows = path, []
+        self.now_ns = time.time_ns if clock is None or clock.real_time else lambda: int(clock.now() * 1e9)
 
     def record(self, msg):
-        self.rows.append((time.time_ns(), msg.time_boot_ms))
+        self.rows.append((self.now_ns(), msg.time_boot_ms))
 
     def write(self):
         with open(self.path, 'w') as out:
@@ -142,7 +144,7 @@ def main(argv=None):
     if args.ideal:
         sim.flight.set_ideal()
 
-    setpoint_log = SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance)) \
+    setpoint_log = SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance), sim.clock) \
         if args.setpoint_log else None
     if setpoint_log:
         sim.on_setpoint_accepted.append(setpoint_log.record)
