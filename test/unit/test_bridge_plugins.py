@@ -21,7 +21,8 @@ from mavros_msgs.srv import (CommandBoolRequest, CommandTOLRequest, ParamGetRequ
                              ParamSetRequest, SetModeRequest, WaypointPullRequest, WaypointPushRequest)
 
 from offboard_py import frames
-from offboard_py.bridge import command, global_position, imu, local_position, mission, node, param, setpoint, sys_status
+from offboard_py.bridge import (command, core, global_position, imu, local_position, mission, node, param, setpoint,
+                                sys_status)
 from offboard_py.bridge.config import read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import mavlink
@@ -446,6 +447,49 @@ def test_mission_pull_from_a_silent_fcu_fails_after_the_retries(monkeypatch):
     response = rig.call('~mission/pull', WaypointPullRequest())
     assert (response.success, response.wp_received) == (False, 0)
     assert len(rig.fcu.got('MISSION_REQUEST_LIST')) == mission.STEP_RETRIES + 1
+
+
+def test_mission_pull_after_connection_retries_until_the_fcu_answers(monkeypatch):
+    """A flood (issue 17) can starve the first pulls: the bridge keeps trying, with back-off,
+    while the link is up, warning each time, and the list is there once the FCU answers."""
+    monkeypatch.setattr(mission, 'STEP_TIMEOUT_S', 0.02)
+    warnings = []
+    monkeypatch.setattr(rospy, 'logwarn', lambda text, *args: warnings.append(text % args))
+    rig = Rig(mission.Mission)
+    fcu = MissionFcu(rig.fcu)
+    assert rig.call('~mission/push', WaypointPushRequest(waypoints=PLAN)).success
+    rig.plugin.waypoints = []
+    answer = fcu._on_request_list
+    fcu_requests = []
+
+    def deaf_twice(msg):  # the first two pulls (8 requests) get nothing
+        fcu_requests.append(msg)
+        return answer(msg) if len(fcu_requests) > 2 * (mission.STEP_RETRIES + 1) else []
+    rig.fcu.answers['MISSION_REQUEST_LIST'] = deaf_twice
+    monkeypatch.setattr(core, 'RETRY_DELAYS_S', (0.01,))
+    rig.bridge.set_connected(True)
+    rig.plugin._auto_pull()
+    assert len(rig.plugin.waypoints) == 2
+    retries = [w for w in warnings if 'mission pull after connection failed' in w]
+    assert len(retries) == 2 and 'trying again' in retries[0], warnings
+
+
+def test_a_pull_retry_ends_with_an_error_when_the_link_is_gone(monkeypatch):
+    errors, warnings = [], []
+    monkeypatch.setattr(rospy, 'logerr', lambda text, *args: errors.append(text % args))
+    monkeypatch.setattr(rospy, 'logwarn', lambda text, *args: warnings.append(text % args))
+    rig = Rig(mission.Mission)
+    rig.bridge.set_connected(True)
+    tries = []
+
+    def attempt():
+        tries.append(1)
+        if len(tries) == 2:
+            rig.bridge.set_connected(False)
+        return False, 'no answer'
+    assert rig.bridge.retry_while_connected('X: pull', attempt, delays=(0.01,)) is False
+    assert len(tries) == 2 and len(warnings) == 1
+    assert errors == ['X: pull failed: no answer; the FCU link is gone (tried again on the next connection)']
 
 
 # -- param -------------------------------------------------------------------------------------

@@ -13,6 +13,7 @@ calls run in other threads and wait on events that thread sets. This module open
 socket and reads no ROS parameter: node.py does that.
 """
 
+import itertools
 import select
 import threading
 import time
@@ -24,6 +25,7 @@ from offboard_py.bridge.attitude import Attitude
 
 
 WAIT_SLICE_S = 0.02  # wall seconds between looks at a deadline on the bridge's clock
+RETRY_DELAYS_S = (1.0, 2.0, 4.0, 8.0, 16.0, 30.0)  # between tries of a connection-time pull; then every 30 s
 
 class Bridge:
     def __init__(self, cfg, link, ros, plugins=(), gcs=None, clock=time.monotonic):
@@ -42,6 +44,7 @@ class Bridge:
         self._clock = clock
         self._periodic = []  # [period_s, next_s, callback]
         self._one_shots = []  # (due_s, callback): after_connect
+        self.connection_epoch = 0  # counts connections: a retry loop ends with its own
         self.connected = False
         self._connection_listeners = []
         self.attitude = Attitude()
@@ -165,8 +168,36 @@ class Bridge:
             self._one_shots.remove(task)
             threading.Thread(target=task[1], name='after-connect', daemon=True).start()
 
+    def retry_while_connected(self, what, attempt, delays=None):
+        """attempt() -> (done, detail) until done, while this FCU connection lasts, backing off by `delays`
+        (bridge clock). Each failed try is a warning; a failure with the link gone is an error (the next
+        connection starts again). True once done."""
+        delays = delays or RETRY_DELAYS_S
+        epoch = self.connection_epoch
+        pause = threading.Event()  # never set: a sleep on the bridge's clock that shutdown ends
+        for tries in itertools.count(1):
+            if self.is_shutdown() or self.connection_epoch != epoch or not self.connected:
+                return False
+            done, detail = attempt()
+            if done:
+                if tries > 1:
+                    rospy.loginfo('%s succeeded at try %d', what, tries)
+                return True
+            if self.is_shutdown():
+                return False
+            if self.connection_epoch != epoch or not self.connected:
+                rospy.logerr('%s failed: %s; the FCU link is gone (tried again on the next connection)',
+                             what, detail)
+                return False
+            delay = delays[min(tries - 1, len(delays) - 1)]
+            rospy.logwarn('%s failed: %s; trying again in %.0f s (try %d)', what, detail, delay, tries + 1)
+            self.wait(pause, delay)
+        return False
+
     def set_connected(self, connected):
         if connected != self.connected:
+            if connected:
+                self.connection_epoch += 1
             self.connected = connected
             for callback in self._connection_listeners:
                 callback(connected)

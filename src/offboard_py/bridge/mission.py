@@ -97,12 +97,14 @@ class Mission:
         self.reached_pub.publish(out)
 
     def _auto_pull(self):
-        if self.bridge.connected and not self.bridge.is_shutdown():
+        def attempt():
             try:
                 count = self._transfer(self._do_pull)
-                rospy.loginfo('WP: mission received: %d items', count)
             except TransferError as err:
-                rospy.logwarn('WP: mission pull after connection failed: %s', err)
+                return False, str(err)
+            rospy.loginfo('WP: mission received: %d items', count)
+            return True, None
+        self.bridge.retry_while_connected('WP: mission pull after connection', attempt)
 
     def _publish(self):
         msg = WaypointList()

@@ -51,9 +51,15 @@ class Param:
         bridge.after_connect(PULL_AFTER_CONNECT_S, self._auto_pull)
 
     def _auto_pull(self):
-        if self.bridge.connected and not self.bridge.is_shutdown() and not self.complete():
+        def attempt():
+            if self.complete():
+                return True, None
             count = self.pull(force=False)
-            rospy.loginfo('PR: parameters received: %d', count)
+            if self.complete():
+                rospy.loginfo('PR: parameters received: %d', count)
+                return True, None
+            return False, '%d of %s parameters received' % (count, self.count if self.count is not None else 'an unknown number of')
+        self.bridge.retry_while_connected('PR: parameter pull after connection', attempt)
 
     def _on_value(self, msg):
         with self.lock:
