@@ -26,3 +26,19 @@ def test_takeoff_scenario_fails_for_a_node_without_prestream():
     assert 'OFFBOARD and armed did not happen' in message, message
     assert 'setpoints streamed by the node: 0' in message, message
     assert 'disarmed' in message, message
+
+
+def test_a_machine_that_cannot_keep_up_fails_the_scenario_saying_so():
+    """At a speed this machine cannot hold (100x: /clock would tick 10 000 times a wall second), the
+    scenario fails on the clock guard, naming the lag and the speed, rather than on a failsafe."""
+    instance, = free_instances(1)
+    with tempfile.TemporaryDirectory() as results:
+        out = subprocess.run(['rostest', '--results-base-dir', results, 'offboard_py', 'takeoff.test',
+                              'speed:=100', 'instance:=%d' % instance],
+                             capture_output=True, text=True, timeout=240)
+        files = [os.path.join(d, f) for d, _, fs in os.walk(results) for f in fs if f.startswith('rosunit-')]
+        assert files, 'no result file; rostest said:\n' + out.stdout[-3000:] + out.stderr[-3000:]
+        failures = [node for f in files for node in ET.parse(f).getroot().iter('failure')]
+    assert failures, 'the takeoff scenario passed at 100x on this machine: the guard was not needed'
+    message = ' '.join((node.get('message') or '') + (node.text or '') for node in failures)
+    assert "behind the vehicles' clock at 100x" in message and 'cannot keep up' in message, message
