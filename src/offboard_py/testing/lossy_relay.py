@@ -4,14 +4,19 @@ Side A faces the FCU (the simulator sends to --fcu-port), side B faces the bridg
 (its fcu_url sends to --bridge-port). Each side learns its peer from the
 first datagram. Every datagram may be dropped, duplicated, delayed or reordered, and the
 link can be cut for a while (--cut START:SECONDS, repeatable, seconds after start).
-With --control-port, a test cuts it when it wants: a datagram "cut SECONDS [both|to_fcu|to_bridge]"
-to that port cuts one or both directions from now on, and is answered "ok" (or "error: ...").
+With --control-port, a test acts on it when it wants, by a datagram to that port answered "ok"
+(or "error: ..."):
+  "cut SECONDS [both|to_fcu|to_bridge]"     cut one or both directions from now on;
+  "drop P SECONDS [both|to_fcu|to_bridge]"  a burst of random loss: drop each datagram with
+                                            probability P (0..1) from now on, on top of --drop.
 Runs as a roslaunch node too (name:=value arguments are ignored), through test/tools/lossy_relay.py.
 Loopback only.
 """
 
 import argparse
+import collections
 import heapq
+import math
 import random
 import select
 import socket
@@ -29,7 +34,8 @@ def parse_args(argv):
     p.add_argument('--delay-ms', type=float, default=0.0, help='delay added to every datagram')
     p.add_argument('--jitter-ms', type=float, default=0.0, help='uniform random extra delay (reorders)')
     p.add_argument('--cut', action='append', default=[], metavar='START:SECONDS', help='cut the link')
-    p.add_argument('--control-port', type=int, help='UDP port for "cut SECONDS [direction]" commands')
+    p.add_argument('--control-port', type=int,
+                   help='UDP port for "cut SECONDS [direction]" and "drop P SECONDS [direction]" commands')
     p.add_argument('--seed', type=int, default=1)
     p.add_argument('--speed', default='1', metavar='K',
                    help='simulated time at K x real time (as sim_px4 --speed): cuts and delays are in its seconds')
@@ -45,20 +51,43 @@ def parse_args(argv):
 
 
 DIRECTIONS = {'both': ('fcu', 'bridge'), 'to_bridge': ('fcu',), 'to_fcu': ('bridge',)}  # by receiving side
+CONTROL_USAGE = 'expected "cut SECONDS [both|to_fcu|to_bridge]" or "drop P SECONDS [both|to_fcu|to_bridge]"'
+MAX_CONTROL_S = 3600.0
+
+
+class Control(collections.namedtuple('Control', 'action seconds receiving drop')):
+    """A control command: action 'cut' or 'drop', for `seconds` (simulated), on the receiving sides
+    (DIRECTIONS' values); `drop` is the loss probability of a 'drop' burst (1.0 for a cut)."""
+
+
+def _number(word, what):
+    try:
+        value = float(word)
+    except ValueError:
+        raise ValueError('%s %r is not a number' % (what, word)) from None
+    if not math.isfinite(value):
+        raise ValueError('%s %r is not a finite number' % (what, word))
+    return value
 
 
 def parse_control(text):
-    """'cut SECONDS [direction]' -> (seconds, receiving sides). Raises ValueError with the reason."""
+    """'cut SECONDS [direction]' or 'drop P SECONDS [direction]' -> Control. Raises ValueError with the reason."""
     words = text.split()
-    if len(words) not in (2, 3) or words[0] != 'cut':
-        raise ValueError('expected "cut SECONDS [both|to_fcu|to_bridge]", got %r' % text)
-    seconds = float(words[1])
-    if not 0.0 <= seconds <= 3600.0:
-        raise ValueError('cut length %g s is outside 0..3600' % seconds)
-    direction = words[2] if len(words) == 3 else 'both'
+    arity = {'cut': 1, 'drop': 2}.get(words[0] if words else None)
+    if arity is None or len(words) not in (1 + arity, 2 + arity):
+        raise ValueError('%s, got %r' % (CONTROL_USAGE, text))
+    drop = 1.0
+    if words[0] == 'drop':
+        drop = _number(words[1], 'loss probability')
+        if not 0.0 <= drop <= 1.0:
+            raise ValueError('loss probability %g is outside 0..1' % drop)
+    seconds = _number(words[arity], '%s length' % words[0])
+    if not 0.0 <= seconds <= MAX_CONTROL_S:
+        raise ValueError('%s length %g s is outside 0..%g' % (words[0], seconds, MAX_CONTROL_S))
+    direction = words[1 + arity] if len(words) == 2 + arity else 'both'
     if direction not in DIRECTIONS:
-        raise ValueError('unknown direction %r' % direction)
-    return seconds, DIRECTIONS[direction]
+        raise ValueError('unknown direction %r (both, to_fcu or to_bridge)' % direction)
+    return Control(words[0], seconds, DIRECTIONS[direction], drop)
 
 
 def main(argv=None):
@@ -80,12 +109,13 @@ def main(argv=None):
         control = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         control.bind(('127.0.0.1', args.control_port))
     cut_until = {'fcu': 0.0, 'bridge': 0.0}  # by receiving side: drop what arrives there until then
+    burst = {'fcu': (0.0, 0.0), 'bridge': (0.0, 0.0)}  # by receiving side: (until, loss probability)
     peers = {'fcu': None, 'bridge': None}
     other = {'fcu': 'bridge', 'bridge': 'fcu'}
     queue = []  # (due, seq, side to send from, data)
     seq = 0
     start = clock.now()
-    stats = {'forwarded': 0, 'dropped': 0, 'duplicated': 0, 'cut': 0}
+    stats = {'forwarded': 0, 'dropped': 0, 'duplicated': 0, 'cut': 0, 'burst_dropped': 0}
     try:
         while True:
             timeout = clock.wall_s(max(0.0, queue[0][0] - clock.now())) if queue else 0.5
@@ -94,13 +124,18 @@ def main(argv=None):
             if control in readable:
                 text, addr = control.recvfrom(1000)
                 try:
-                    seconds, receiving = parse_control(text.decode('ascii', 'replace'))
+                    command = parse_control(text.decode('ascii', 'replace'))
                 except ValueError as err:
                     control.sendto(b'error: %s' % str(err).encode(), addr)
                 else:
-                    for side in receiving:
-                        cut_until[side] = now + seconds
-                    print('lossy_relay: cut %s for %.1f s' % ('+'.join(receiving), seconds), flush=True)
+                    for side in command.receiving:
+                        if command.action == 'cut':
+                            cut_until[side] = now + command.seconds
+                        else:
+                            burst[side] = (now + command.seconds, command.drop)
+                    print('lossy_relay: %s %s for %.1f s%s' % (
+                        command.action, '+'.join(command.receiving), command.seconds,
+                        '' if command.action == 'cut' else ' (loss %.0f %%)' % (100 * command.drop)), flush=True)
                     control.sendto(b'ok', addr)
             for name, sock in sides.items():
                 if sock not in readable:
@@ -117,6 +152,9 @@ def main(argv=None):
                         continue
                     if rng.random() < args.drop:
                         stats['dropped'] += 1
+                        continue
+                    if now < burst[name][0] and rng.random() < burst[name][1]:
+                        stats['burst_dropped'] += 1
                         continue
                     copies = 2 if rng.random() < args.duplicate else 1
                     stats['duplicated'] += copies - 1
