@@ -19,7 +19,7 @@ class LateFcuTest(OffboardTestCase):
         self.pause(4.0)
         self.assertFalse(vehicle.state.connected, 'no vehicle yet: %s' % vehicle.describe())
         self.assertEqual(setpoints, [], 'nothing is streamed before the FCU is connected')
-        self.wait_for_connected(vehicle, 20.0)
+        self.wait_for_connected(vehicle, 60.0)
         self.wait_for_offboard_and_armed(vehicle, 60.0)
         self.wait_for_altitude(vehicle, 2.0, 0.15, 30.0)
         self.assertTrue(any('Waiting for the FCU connection' in line for line in log.lines), log.lines)
