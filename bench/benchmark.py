@@ -69,6 +69,8 @@ def processes(n):
         ns = next((e.split(b'=', 1)[1].decode() for e in env if e.startswith(b'ROS_NAMESPACE=')), '')
         if role and ns.strip('/').startswith('uav'):
             found[(int(ns.strip('/')[3:]), role)] = int(pid)
+        elif b'sim_clock.py' in text:  # simulated time: the /clock publisher, counted with vehicle 0
+            found[(0, 'clock')] = int(pid)
     return found
 
 
@@ -127,7 +129,8 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0
         inside = [r for r in rows if window[0] <= r[0] <= window_end]
         quality = stream_quality([r[0] for r in inside])
         entry = {'vehicle': i, 'stream': quality, 'phases_s': watches[i].phases,
-                 'cpu_pct': {role: cpu.get((i, role)) for role in ('node', 'bridge', 'sim')},
+                 'cpu_pct': {role: cpu.get((i, role)) for role in ('node', 'bridge', 'sim', 'clock')
+                             if (i, role) in cpu or role != 'clock'},
                  'rss_mb': {role: rss.get((i, role)) for role in ('node', 'bridge', 'sim')}}
         if latency and i == 0:
             lat = latencies_ms(inside, stamps)
@@ -237,7 +240,7 @@ def _measure(args, scale, logdir):
              % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2), met(within(lat['p99'], 2.0)))]
     for role in ('node', 'bridge', 'sim'):
         lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | | |'
-                     % (role, fmt(single['cpu_pct'][role]), fmt(single['rss_mb'][role], 0)))
+                     % (role, fmt(single['cpu_pct'].get(role)), fmt(single['rss_mb'][role], 0)))
     lines.append('| whole stack CPU per vehicle | %s %% | <= 5 %% | %s |' % (fmt(total), met(total <= 5.0)))
     lines.append('| start -> connected -> OFFBOARD -> armed -> hover (0.1 m) | %s / %s / %s / %s s | | |'
                  % tuple(fmt(ph.get(k)) for k in ('connected', 'offboard', 'armed', 'hover')))
