@@ -295,8 +295,9 @@ class SimulatedPx4:
 
     def _send_param_lists(self):
         for link, pending in list(self.param_lists.items()):
-            for _ in range(min(PARAM_LIST_BATCH, len(pending))):
-                link.send(self._param_value(pending.popleft()))
+            # in one datagram, as the streams: at 10x the list's 887 datagrams came within 90 ms and
+            # overflowed a Python client's socket buffer
+            link.send_many([self._param_value(pending.popleft()) for _ in range(min(PARAM_LIST_BATCH, len(pending)))])
             if not pending:
                 del self.param_lists[link]
 
@@ -382,8 +383,11 @@ class SimulatedPx4:
             elif isinstance(event, ev.ItemReached):
                 self._broadcast(self.mav.mission_item_reached_encode(event.seq))
 
-    def step(self, dt):
+    def step(self, dt, slot_s=None):
+        """One cycle of the loop; the streams due at `slot_s` (the cycle's time on the loop's
+        schedule, seconds since boot; default: now) go out."""
         now = self.t()
+        slot_s = now if slot_s is None else slot_s
         self.flight.step(now, dt)
         self.transfer.tick(now)
         self._say_events()
@@ -392,7 +396,7 @@ class SimulatedPx4:
         status, built = None, {}
         for link, streams in self.streams.items():
             out = []
-            for name in streams.due(now):
+            for name in streams.due(slot_s):
                 if name not in built:  # one message per step for all the links that want it
                     if status is None:
                         status = self.flight.status(now)
@@ -423,7 +427,10 @@ class SimulatedPx4:
                 link.receive()
             now = self.clock()
             if now >= next_s:
-                self.step(period)
+                # Streams are timed by the step's slot on the schedule, not by when select() woke: at
+                # speed K a wake-up jitter of j wall seconds is K x j simulated ones, and at 10x a 1 ms
+                # late wake-up is a whole 100 Hz period: ATTITUDE, due every step, skipped one in three.
+                self.step(period, next_s - self.boot_s)
                 next_s += period
                 if now - next_s > 0.25 * speed:  # stalled a quarter second (suspended, overloaded): resynchronise
                     if speed != 1.0:
