@@ -3,10 +3,19 @@
 No ROS: this is how QGroundControl, MAVSDK or a script would see the vehicle.
 Each test starts its own simulator instance (its own system id and ports), on instance
 numbers that are free at the time (offboard_py.testing.ports).
+
+Simulated time: every simulator runs at speed K = OFFBOARD_PY_SPEED (1, real time, if unset)
+unless the test passes its own --speed, and its client runs on the same clock
+(offboard_py.simclock): arrival stamps, deadlines and sleeps are in simulated seconds, so a
+test reads the same at any speed. Wall-clock limits (a process exiting, the kernel's socket
+buffer) stay in wall seconds.
 """
 
 import os
+import select
 import signal
+import socket
+import struct
 import sys
 import threading
 import time
@@ -18,6 +27,7 @@ from pymavlink import mavutil  # noqa: E402
 
 from offboard_py import px4_modes  # noqa: E402
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink  # noqa: E402
+from offboard_py.simclock import SimClock, parse_speed, speed_from_env  # noqa: E402
 from offboard_py.testing import ports  # noqa: E402
 from offboard_py.testing.processes import OutputProcess  # noqa: E402
 from offboard_py.testing.typemask import POSITION_AND_YAW  # noqa: E402
@@ -25,19 +35,40 @@ from offboard_py.testing.typemask import POSITION_AND_YAW  # noqa: E402
 REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
 SIM_SCRIPT = os.path.join(REPO, 'scripts', 'sim_px4.py')
 GCS_EXTRA_PORT = 9  # the extra port (offboard_py.testing.ports) a test's ground station binds
+SPEED = speed_from_env(1.0)  # the tier's simulated-time factor: OFFBOARD_PY_SPEED
+START_WALL_S = 10.0  # a simulator's first HEARTBEAT: starting Python and importing take wall time
+# Linux's kernel receive stamps (socket(7)): CLOCK_REALTIME as struct timespec; Python does not name them
+SO_TIMESTAMPNS = SCM_TIMESTAMPNS = 35
+TIMESPEC = struct.Struct('@qq')
 ACCEPTED, TEMPORARILY_REJECTED, DENIED, UNSUPPORTED, FAILED = (
     mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_DENIED,
     mavlink.MAV_RESULT_UNSUPPORTED, mavlink.MAV_RESULT_FAILED)
 
 
+def speed_in(args):
+    """The value of --speed in a simulator's arguments, or None."""
+    for i, arg in enumerate(args):
+        if arg == '--speed' and i + 1 < len(args):
+            return parse_speed(args[i + 1], '--speed')
+        if arg.startswith('--speed='):
+            return parse_speed(arg.split('=', 1)[1], '--speed')
+    return None
+
+
 class SimProcess(OutputProcess):
-    """scripts/sim_px4.py -i INSTANCE ARGS, run by this Python with the caller's environment.
+    """scripts/sim_px4.py -i INSTANCE ARGS, run by this Python with the caller's environment,
+    at --speed SPEED unless ARGS say otherwise; `clock` is its simulated clock.
     Its ground-station link sends to the instance's extra port GCS_EXTRA_PORT (not to 14550,
     which tests running side by side would share)."""
 
     def __init__(self, instance, *args):
         self.instance = instance
         self.gcs_port = ports.extra_port(instance, GCS_EXTRA_PORT)
+        speed = speed_in(args)
+        if speed is None:
+            speed = SPEED
+            args += ('--speed', '%g' % speed)
+        self.clock = SimClock(speed)
         super().__init__([sys.executable, SIM_SCRIPT, '-i', str(instance), '--gcs-remote-port', str(self.gcs_port)]
                          + list(args))
 
@@ -46,36 +77,69 @@ class SimProcess(OutputProcess):
 
 
 class Client:
-    """A MAVLink ground station / companion on the instance's bridge port, as mavros or MAVSDK would be."""
+    """A MAVLink ground station / companion on the instance's bridge port, as mavros or MAVSDK would be,
+    on the simulator's clock: every time it keeps or waits is in simulated seconds."""
 
-    def __init__(self, instance, system_id=255, component_id=mavlink.MAV_COMP_ID_MISSIONPLANNER, port=None):
-        """On the instance's bridge port (the onboard link's remote), or on `port`."""
+    POLL_S = 0.02            # simulated seconds between two looks at a condition ...
+    POLL_MIN_WALL_S = 0.005  # ... but no busier than this, which would starve the receiving thread
+    CATCH_UP_WALL_S = 1.0    # at most this long past a deadline, a wait reads what arrived before it
+
+    def __init__(self, instance, clock, system_id=255, component_id=mavlink.MAV_COMP_ID_MISSIONPLANNER, port=None):
+        """On the instance's bridge port (the onboard link's remote), or on `port`; `clock` is the
+        simulator's (SimProcess.clock)."""
+        self.clock = clock
         self.target = ports.system_id(instance)
         port = ports.bridge_port(instance) if port is None else port
         self.conn = mavutil.mavlink_connection('udpin:127.0.0.1:%d' % port,
                                                dialect='development',
                                                source_system=system_id, source_component=component_id)
+        self.conn.port.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
         self.mav = self.conn.mav
         self.lock = threading.Lock()
         self.latest = {}
-        self.history = []          # (time, msg) of everything received
-        self.acks = []             # (time, COMMAND_ACK)
+        self.history = []          # (simulated time, msg) of everything received
+        self.by_type = {}          # message type -> [(simulated time, msg)], the history by type
+        self.acks = []             # (simulated time, COMMAND_ACK)
+        self.received_s = float('-inf')  # arrival of the newest datagram read
+        self.last_setpoint_s = None  # simulated time of the last setpoint start_stream sent
         self._stream = None
         self._running = True
         self._rx = threading.Thread(target=self._receive, daemon=True)
         self._rx.start()
 
     def _receive(self):
+        """Each datagram whole, stamped with the kernel's arrival time: what the vehicle sent when,
+        however late this thread gets to it (at speed K a wall millisecond is K simulated ones).
+        pymavlink's recv_match would return one message per datagram read, queueing the rest of a
+        datagram (the simulator sends a step's streams in one) behind the next one."""
+        sock = self.conn.port
         while self._running:
-            msg = self.conn.recv_match(blocking=True, timeout=0.2)
-            if msg is None or msg.get_type() == 'BAD_DATA':
+            if not select.select([sock], [], [], 0.2)[0]:
                 continue
-            now = time.monotonic()
+            try:
+                data, ancdata, _, address = sock.recvmsg(65535, socket.CMSG_SPACE(TIMESPEC.size))
+            except (BlockingIOError, ConnectionRefusedError):
+                continue
+            now = self._arrival_s(ancdata)
+            self.conn.clients.add(address)  # conn.write() answers whoever sent to us, as pymavlink's recv() does
+            msgs = [m for m in self.mav.parse_buffer(data) or () if m.get_type() != 'BAD_DATA']
             with self.lock:
-                self.latest[msg.get_type()] = msg
-                self.history.append((now, msg))
-                if msg.get_type() == 'COMMAND_ACK':
-                    self.acks.append((now, msg))
+                for msg in msgs:
+                    self.latest[msg.get_type()] = msg
+                    self.history.append((now, msg))
+                    self.by_type.setdefault(msg.get_type(), []).append((now, msg))
+                    if msg.get_type() == 'COMMAND_ACK':
+                        self.acks.append((now, msg))
+                self.received_s = now
+
+    def _arrival_s(self, ancdata):
+        """The kernel's arrival stamp (realtime) on the simulated clock; now, when there is none."""
+        for level, kind, data in ancdata:
+            if level == socket.SOL_SOCKET and kind == SCM_TIMESTAMPNS and len(data) >= TIMESPEC.size:
+                sec, nsec = TIMESPEC.unpack_from(data)
+                monotonic_s = sec + nsec * 1e-9 - (time.time() - time.monotonic())
+                return self.clock.sim_s(monotonic_s)
+        return self.clock.now()
 
     def send(self, msg):
         with self.lock:
@@ -89,15 +153,37 @@ class Client:
 
     # -- waiting -----------------------------------------------------------------------------
 
+    def now(self):
+        """The simulator's time, simulated seconds."""
+        return self.clock.now()
+
+    def sleep(self, sim_s):
+        self.clock.sleep(sim_s)
+
+    def received(self, msg_type):
+        """[(simulated time, msg)] of every `msg_type` received so far."""
+        with self.lock:
+            return list(self.by_type.get(msg_type, ()))
+
     def wait_for(self, predicate, timeout_s, what):
-        """Poll predicate() until true; fail saying what was awaited and what was seen."""
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
+        """Poll predicate() until true, for timeout_s simulated seconds; fail saying what was awaited
+        and what was seen. Past the deadline it goes on until it has read what the vehicle sent up to
+        the deadline (for at most CATCH_UP_WALL_S), so that this process lagging behind the vehicle,
+        which at speed K is K times as long in simulated seconds, is not taken for the vehicle's delay."""
+        poll_s = max(self.POLL_S, self.clock.sim_s(self.POLL_MIN_WALL_S))
+        deadline = self.now() + timeout_s
+        give_up = deadline + self.clock.sim_s(self.CATCH_UP_WALL_S)
+        while True:
+            read_past_deadline = self.received_s >= deadline  # before predicate(): it saw all of that
             value = predicate()
             if value:
                 return value
-            time.sleep(0.02)
-        pytest.fail('timed out after %.1f s waiting for %s; vehicle: %s' % (timeout_s, what, self.describe()))
+            now = self.now()
+            if now >= deadline and (read_past_deadline or now >= give_up):
+                break
+            self.sleep(poll_s)
+        pytest.fail('timed out after %.1f s (simulated, at %gx) waiting for %s; vehicle: %s'
+                    % (timeout_s, self.clock.speed, what, self.describe()))
 
     def describe(self):
         hb, pos = self.latest.get('HEARTBEAT'), self.latest.get('LOCAL_POSITION_NED')
@@ -175,17 +261,18 @@ class Client:
                                                              *velocity, 0.0, 0.0, 0.0, yaw, 0.0)
 
     def start_stream(self, north=0.0, east=0.0, down=-2.0, rate_hz=20.0):
+        """Send a position setpoint at rate_hz (simulated) until stop_stream()."""
         self.stop_stream()
         stop = threading.Event()
 
         def run():
             period = 1.0 / rate_hz
-            next_s = time.monotonic()
+            next_s = self.now()
             while not stop.is_set():
                 self.send(self.setpoint(north, east, down))
-                self.last_setpoint_s = time.monotonic()
+                self.last_setpoint_s = self.now()
                 next_s += period
-                stop.wait(max(0.0, next_s - time.monotonic()))
+                stop.wait(self.clock.wall_s(max(0.0, next_s - self.now())))
         thread = threading.Thread(target=run, daemon=True)
         self._stream = (stop, thread)
         thread.start()
@@ -200,16 +287,17 @@ class Client:
 
 @pytest.fixture
 def start_sim():
-    """start_sim(*args) -> (SimProcess, Client with a heartbeat received), on a free instance."""
+    """start_sim(*args) -> (SimProcess, Client with a heartbeat received), on a free instance,
+    at --speed SPEED unless args has its own --speed."""
     started = []
 
     def start(*args):
         instance, = ports.free_instances(1, taken=[sim.instance for sim, _ in started])
         sim = SimProcess(instance, *args)
-        client = Client(instance)
+        client = Client(instance, sim.clock)
         started.append((sim, client))
         try:
-            client.wait_heartbeat(10.0)
+            client.wait_heartbeat(sim.clock.sim_s(START_WALL_S))
         except BaseException:
             print(sim.output)
             raise

@@ -3,7 +3,8 @@ what its onboard link sends, at which rates, with which fields, and how it answe
 
 Rates are measured on the ground, disarmed, after "ready", over 5 s, from the arrival times
 of each type ((n - 1) / (last - first), so a 0.5 Hz stream needs no 20 s window), and must be
-within 10 % of PX4's. The ids the census could not name are listed there and not checked.
+within 10 % of PX4's; seconds and hertz are simulated ones (the client's clock, conftest).
+The ids the census could not name are listed there and not checked.
 """
 
 import json
@@ -49,9 +50,9 @@ def sys_status_health(client):
 def test_onboard_rates_and_fields_as_px4_sitl(start_sim):
     _, client = start_sim(*FAST)
     wait_ready(client)
-    t0 = time.monotonic()
-    time.sleep(WINDOW_S)
-    rates = measured_rates(client, t0, time.monotonic())
+    t0 = client.now()
+    client.sleep(WINDOW_S)
+    rates = measured_rates(client, t0, client.now())
     print('onboard link, Hz:', ', '.join('%s %.2f' % kv for kv in sorted(rates.items())))
     errors = rate_errors(rates, CENSUS['rates_hz'])
     assert not errors, 'rates off by more than 10 %%: %s; measured %s' % (
@@ -70,6 +71,7 @@ def test_onboard_rates_and_fields_as_px4_sitl(start_sim):
     for field in ('altitude_amsl', 'altitude_local', 'altitude_relative', 'altitude_monotonic', 'altitude_terrain',
                   'bottom_clearance'):
         assert math.isfinite(getattr(alt, field)), 'ALTITUDE.%s is %r' % (field, getattr(alt, field))
+    # Unix time is the wall clock's at any speed, as PX4's from its GPS
     assert abs(latest['SYSTEM_TIME'].time_unix_usec / 1e6 - time.time()) < 1.0, 'SYSTEM_TIME carries Unix time'
     odom, pos = latest['ODOMETRY'], latest['LOCAL_POSITION_NED']
     assert (odom.frame_id, odom.child_frame_id) == (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_BODY_FRD)
@@ -104,9 +106,9 @@ def test_answers_as_px4_sitl(start_sim):
     # SET_MESSAGE_INTERVAL(ATTITUDE, 10 Hz): accepted and the rate changes
     result = client.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 100000)[0]
     assert result == answers['SET_MESSAGE_INTERVAL(ATTITUDE,10 Hz)']['result'] == ACCEPTED
-    t0 = time.monotonic() + 0.3
-    time.sleep(3.3)
-    rate = measured_rates(client, t0, time.monotonic()).get('ATTITUDE', 0.0)
+    t0 = client.now() + 0.3
+    client.sleep(3.3)
+    rate = measured_rates(client, t0, client.now()).get('ATTITUDE', 0.0)
     assert abs(rate - 10.0) <= 1.0, 'ATTITUDE at %.1f Hz after SET_MESSAGE_INTERVAL 10 Hz' % rate
 
     # TIMESYNC: tc1 on the boot clock (the clock of time_boot_ms), ts1 echoed
@@ -151,12 +153,12 @@ def test_readiness_in_heartbeat_and_prearm_bit(start_sim):
     assert client.arm() == ACCEPTED
     client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_ACTIVE, 2.0, 'ACTIVE')
     assert client.arm(False) == ACCEPTED
-    disarmed = time.monotonic()
+    disarmed = client.now()
     client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_UNINIT, 1.6,
                     'UNINIT after the disarm, as PX4')
     client.wait_for(lambda: not sys_status_health(client) & PREARM, 0.5, 'no PREARM_CHECK just after a disarm')
     wait_ready(client, 3.0)
-    assert time.monotonic() - disarmed < 3.0
+    assert client.now() - disarmed < 3.0
 
 
 def test_battery_drains_while_armed(start_sim):
@@ -164,7 +166,7 @@ def test_battery_drains_while_armed(start_sim):
     wait_ready(client)
     voltage0 = client.latest['SYS_STATUS'].voltage_battery
     assert client.arm() == ACCEPTED
-    time.sleep(3.0)
+    client.sleep(3.0)
     status = client.latest['SYS_STATUS']
     assert status.voltage_battery < voltage0 and status.battery_remaining <= 100
     assert client.latest['SERVO_OUTPUT_RAW'].servo1_raw >= 1000
@@ -172,15 +174,15 @@ def test_battery_drains_while_armed(start_sim):
 
 def test_gcs_link_as_px4_sitl(start_sim):
     sim, onboard = start_sim(*FAST)
-    gcs = Client(sim.instance, port=sim.gcs_port)
+    gcs = Client(sim.instance, sim.clock, port=sim.gcs_port)
     try:
         gcs.wait_heartbeat(5.0)
         first = next(m for _, m in gcs.history if m.get_type() == 'HEARTBEAT')
         assert first.get_srcSystem() == onboard.target
         wait_ready(gcs)
-        t0 = time.monotonic()
-        time.sleep(WINDOW_S)
-        rates = measured_rates(gcs, t0, time.monotonic())
+        t0 = gcs.now()
+        gcs.sleep(WINDOW_S)
+        rates = measured_rates(gcs, t0, gcs.now())
         print('GCS link, Hz:', ', '.join('%s %.2f' % kv for kv in sorted(rates.items())))
         # the faster streams; 0.1-0.5 Hz ones give one or two samples in 5 s
         fast = {name: hz for name, hz in CENSUS['gcs_rates_hz'].items() if hz >= 1.0}
@@ -199,7 +201,7 @@ def test_gcs_link_as_px4_sitl(start_sim):
         gcs.send(gcs.mav.mission_request_list_encode(gcs.target, 1, mavlink.MAV_MISSION_TYPE_MISSION))
         gcs.wait_for(lambda: any(m.get_type() == 'MISSION_COUNT' for _, m in gcs.history[start:]), 2.0,
                      'MISSION_COUNT on the GCS link')
-        time.sleep(0.2)
+        gcs.sleep(0.2)
         assert len(onboard.acks) == n_onboard, 'the onboard client got an ACK for a GCS request'
     finally:
         gcs.close()
@@ -210,7 +212,7 @@ def test_no_gcs_option(start_sim):
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
         sock.bind(('127.0.0.1', sim.gcs_port))
-        sock.settimeout(2.0)
+        sock.settimeout(sim.clock.wall_s(2.0))  # two HEARTBEATs' worth of simulated time
         try:
             data = sock.recv(1024)
         except socket.timeout:

@@ -8,7 +8,6 @@ system (MAVLink 1 and 2), out-of-range enums and NaN fields for this system.
 import math
 import random
 import socket
-import time
 
 from pymavlink.dialects.v10 import common as mavlink1
 
@@ -86,11 +85,11 @@ def read_param(client, name):
 
 def test_fuzz_changes_nothing(start_sim):
     sim, client = start_sim('--ready-delay', '1')
-    time.sleep(1.2)
+    client.sleep(1.2)
     before = {name: read_param(client, name) for name in ('MIS_TAKEOFF_ALT', 'COM_OF_LOSS_T', 'COM_OBL_RC_ACT')}
     raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rng = random.Random(2026)
-    started = time.monotonic()
+    started = client.now()
     fcu = ('127.0.0.1', ports.fcu_port(sim.instance))
     assert mavlink_fuzz.send_paced(raw, fcu, hostile_frames(rng, FRAMES, client.target)) == FRAMES
     assert sim.proc.poll() is None, 'the simulator died:\n' + '\n'.join(sim.lines[-20:])
@@ -98,8 +97,8 @@ def test_fuzz_changes_nothing(start_sim):
     # take the link back (valid frames from the fuzzer moved the simulator's remote, as on PX4)
     after = {name: read_param(client, name) for name in before}
     assert after == before, 'parameters changed: %s -> %s' % (before, after)
-    client.wait_for(lambda: client.latest['HEARTBEAT'] and time.monotonic() - started > 0, 3.0, 'heartbeat')
-    time.sleep(1.2)
+    client.wait_for(lambda: client.latest['HEARTBEAT'] and client.now() - started > 0, 3.0, 'heartbeat')
+    client.sleep(1.2)
     assert client.mode() == 'AUTO.LOITER' and not client.armed(), client.describe()
     start = len(client.history)
     client.send(client.mav.mission_request_list_encode(client.target, 1, MISSION))

@@ -2,11 +2,10 @@
 
 PX4 SITL answers PARAM_REQUEST_LIST with all its parameters (param_count 888, the index of each
 in name order) in under 1 s on loopback, while its streams go on; it echoes every PARAM_SET
-with the value in force (shared/reference/px4-sitl-measured.md).
+with the value in force (shared/reference/px4-sitl-measured.md). Seconds are simulated ones.
 """
 
 import struct
-import time
 
 from offboard_py import param_codec
 from offboard_py.dialect import mavlink
@@ -30,9 +29,9 @@ def wait_param_value(client, start, name, timeout_s=2.0):
 
 def test_param_request_list_sends_the_whole_table_while_the_streams_go_on(start_sim):
     _, client = start_sim(*FAST)
-    time.sleep(0.5)
+    client.sleep(0.5)
     start = len(client.history)
-    t0 = time.monotonic()
+    t0 = client.now()
     client.send(client.mav.param_request_list_encode(client.target, 1))
 
     def indices():

@@ -28,13 +28,13 @@ KEY = bytes(range(7, 39))
 def no_ack_for(client, send, seconds=1.5):
     start = len(client.acks)
     send()
-    time.sleep(seconds)
+    client.sleep(seconds)
     return len(client.acks) == start
 
 
 def exit_counts(sim):
     sim.stop()
-    time.sleep(0.3)
+    time.sleep(0.3)  # wall seconds: the exited process's last lines reach sim.lines
     text = '\n'.join(sim.lines)
     found = re.search(r'link: (.*); vehicle: (.*)', text)
     assert found, text[-2000:]
@@ -48,7 +48,7 @@ def test_signing_required_drops_unsigned_and_badly_signed(start_sim, tmp_path):
     sim, client = start_sim('--signing-key', str(key_file), *FAST)
     hb = client.wait_heartbeat()
     assert hb.get_header().incompat_flags & mavlink2.MAVLINK_IFLAG_SIGNED, 'PX4 with a key signs what it sends'
-    time.sleep(1.2)
+    client.sleep(1.2)
 
     # unsigned MAVLink 2 (arm, parameter write), MAVLink 1, and a frame signed with another key
     assert no_ack_for(client, lambda: client.send(arm_command(client.mav, client.target)))
@@ -73,7 +73,7 @@ def test_signing_required_drops_unsigned_and_badly_signed(start_sim, tmp_path):
 
 def test_setup_signing_provisions_the_key(start_sim):
     sim, client = start_sim(*FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     client.send(client.mav.setup_signing_encode(client.target, 1, list(KEY), 0))
     client.wait_for(lambda: client.latest['HEARTBEAT'].get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED, 3.0,
                     'a signed HEARTBEAT')
@@ -90,11 +90,11 @@ def test_setup_signing_provisions_the_key(start_sim):
 
 def test_allow_list_takes_commands_from_listed_systems_only(start_sim):
     sim, client = start_sim('--allow-sysid', '1,42', *FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     assert no_ack_for(client, lambda: client.send(arm_command(client.mav, client.target)))
     for _ in range(10):
         client.send(client.setpoint(0, 0, -2))
-        time.sleep(0.02)
+        client.sleep(0.02)
     assert not client.armed()
     # reading is open to anyone
     client.send(client.mav.param_request_read_encode(client.target, 1, b'COM_OF_LOSS_T', -1))

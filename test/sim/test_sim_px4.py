@@ -1,6 +1,7 @@
 """The simulated PX4 against a plain pymavlink client over UDP on 127.0.0.1 (no ROS).
 
 Every expectation is PX4's behaviour (../shared/reference/px4-behaviour.md), not ours.
+Seconds are simulated ones, on the client's clock (conftest).
 """
 
 import math
@@ -28,7 +29,7 @@ MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 
 def fly_offboard_to_2m(client):
     client.start_stream(down=-2.0)
-    time.sleep(0.5)
+    client.sleep(0.5)
     assert client.set_mode('OFFBOARD') == ACCEPTED
     client.wait_mode('OFFBOARD', 2.0)
     assert client.arm() == ACCEPTED
@@ -48,18 +49,18 @@ def test_heartbeat_identity_and_boot_state(start_sim):
     assert hb.system_status == mavlink.MAV_STATE_UNINIT, 'UNINIT until the pre-flight checks pass (PX4 SITL)'
     client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_STANDBY, 7.0,
                     'STANDBY once ready (5 s)')
-    t0 = time.monotonic()
+    t0 = client.now()
     count0 = sum(1 for _, m in client.history if m.get_type() == 'HEARTBEAT')
-    time.sleep(3.0)
+    client.sleep(3.0)
     count = sum(1 for t, m in client.history if m.get_type() == 'HEARTBEAT' and t >= t0) - 0
     assert 2 <= count <= 4, 'HEARTBEAT is 1 Hz, saw %d in 3 s (had %d)' % (count, count0)
 
 
 def test_streams_at_px4_onboard_rates(start_sim):
     _, client = start_sim(*FAST)
-    time.sleep(1.0)
-    t0 = time.monotonic()
-    time.sleep(2.0)
+    client.sleep(1.0)
+    t0 = client.now()
+    client.sleep(2.0)
     rates = {}
     for t, m in list(client.history):
         if t >= t0:
@@ -73,8 +74,8 @@ def test_streams_at_px4_onboard_rates(start_sim):
     interval = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
     assert client.command(interval, mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED, 200000)[0] == ACCEPTED
     assert client.command(interval, mavlink.MAVLINK_MSG_ID_HEARTBEAT, 100000)[0] == FAILED
-    t1 = time.monotonic()
-    time.sleep(2.0)
+    t1 = client.now()
+    client.sleep(2.0)
     n = sum(1 for t, m in list(client.history) if t >= t1 + 0.2 and m.get_type() == 'LOCAL_POSITION_NED')
     assert 7 <= n <= 11, 'LOCAL_POSITION_NED at 5 Hz should give ~9 in 1.8 s, got %d' % n
     # REQUEST_MESSAGE: one AUTOPILOT_VERSION; an id it cannot send is DENIED (PX4 SITL)
@@ -85,7 +86,7 @@ def test_streams_at_px4_onboard_rates(start_sim):
 
 def test_offboard_refusals_then_acceptance(start_sim):
     _, client = start_sim(*FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     # disarmed: OFFBOARD is accepted even with no setpoints (current PX4) ...
     assert client.set_mode('OFFBOARD') == ACCEPTED
     client.wait_mode('OFFBOARD', 2.0)
@@ -96,11 +97,11 @@ def test_offboard_refusals_then_acceptance(start_sim):
     assert client.set_mode('AUTO.LOITER') == ACCEPTED
     assert client.arm() == ACCEPTED
     assert client.set_mode('OFFBOARD') == TEMPORARILY_REJECTED
-    time.sleep(0.3)
+    client.sleep(0.3)
     assert client.current_mode() == 'AUTO.LOITER'
     # after streaming: accepted
     client.start_stream(down=-2.0)
-    time.sleep(0.3)
+    client.sleep(0.3)
     assert client.set_mode('OFFBOARD') == ACCEPTED
     client.wait_mode('OFFBOARD', 1.0)
 
@@ -116,15 +117,15 @@ def test_command_long_set_mode_gets_two_acks(start_sim):
 
 def test_offboard_takeoff_to_2m_and_hold(start_sim):
     _, client = start_sim(*FAST)
-    time.sleep(1.2)
-    armed_at = time.monotonic()
+    client.sleep(1.2)
+    armed_at = client.now()
     fly_offboard_to_2m(client)
-    climb_s = time.monotonic() - armed_at
+    climb_s = client.now() - armed_at
     samples = []
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < 3.0:
+    t0 = client.now()
+    while client.now() - t0 < 3.0:
         samples.append(client.z())
-        time.sleep(0.05)
+        client.sleep(0.05)
     highest = min(z for t, m in client.history if m.get_type() == 'LOCAL_POSITION_NED' for z in (m.z,))
     assert highest >= -2.2, 'overshoot: reached z = %.2f m (limit 0.2 m over 2 m)' % highest
     assert all(abs(z + 2.0) <= 0.1 for z in samples), 'hold left 2 +- 0.1 m: %s' % samples
@@ -148,7 +149,7 @@ def failsafe_delay(client, mode):
 def test_failsafe_without_rc_is_return_and_lands(start_sim):
     _, client = start_sim(*FAST)
     loss_t = read_param(client, 'COM_OF_LOSS_T').param_value  # PX4 SITL: 1.0 s
-    time.sleep(1.2)
+    client.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'AUTO.RTL')
     assert loss_t - 0.05 <= delay <= loss_t + 0.2, 'failsafe took %.2f s (COM_OF_LOSS_T %.1f, + 0.2)' % (delay, loss_t)
@@ -164,21 +165,21 @@ def test_failsafe_without_rc_is_return_and_lands(start_sim):
     # after the disarm the vehicle is back in the mode the user chose, and stays there
     client.wait_mode('OFFBOARD', 2.0)
     client.start_stream(down=-2.0)
-    time.sleep(3.0)
+    client.sleep(3.0)
     assert not client.armed(), 'the vehicle must not arm by itself'
 
 
 def test_failsafe_with_rc_holds_position(start_sim):
     _, client = start_sim('--rc', *FAST)
     loss_t = read_param(client, 'COM_OF_LOSS_T').param_value  # PX4 SITL: 1.0 s
-    time.sleep(1.2)
+    client.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'POSCTL')  # COM_OBL_RC_ACT 0 (Position) applies with RC
     assert loss_t - 0.05 <= delay <= loss_t + 0.2, 'failsafe took %.2f s (COM_OF_LOSS_T %.1f, + 0.2)' % (delay, loss_t)
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < 3.0:
+    t0 = client.now()
+    while client.now() - t0 < 3.0:
         assert abs(client.z() + 2.0) < 0.2, 'POSCTL should hold altitude, z = %.2f' % client.z()
-        time.sleep(0.1)
+        client.sleep(0.1)
     assert client.armed()
 
 
@@ -196,18 +197,17 @@ def test_arming_ack_codes(start_sim):
 
 def test_preflight_auto_disarm(start_sim):
     _, client = start_sim('COM_DISARM_PRFLT=2', *FAST)
-    time.sleep(1.2)
-    t0 = time.monotonic()
+    client.sleep(1.2)
+    t0 = client.now()
     assert client.arm() == ACCEPTED
     client.wait_armed(True, 2.0)  # HEARTBEAT is 1 Hz: the disarm shows within 1 s of happening
     client.wait_armed(False, 4.0)
-    assert 1.9 <= time.monotonic() - t0 <= 3.5, 'COM_DISARM_PRFLT=2: disarmed after %.1f s' % (
-        time.monotonic() - t0)
+    assert 1.9 <= client.now() - t0 <= 3.5, 'COM_DISARM_PRFLT=2: disarmed after %.1f s' % (client.now() - t0)
 
 
 def test_injected_failure_blocks_arming(start_sim):
     _, client = start_sim('SYS_FAILURE_EN=1', *FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     assert client.command(MAV_CMD_INJECT_FAILURE, FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OFF)[0] == ACCEPTED
     assert client.arm() == TEMPORARILY_REJECTED
     assert client.command(MAV_CMD_INJECT_FAILURE, FAILURE_UNIT_SENSOR_GYRO, FAILURE_TYPE_OK)[0] == ACCEPTED
@@ -216,7 +216,7 @@ def test_injected_failure_blocks_arming(start_sim):
 
 def test_takeoff_and_land_commands(start_sim):
     _, client = start_sim(*FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     assert client.arm() == ACCEPTED
     assert client.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, *NAN4)[0] == ACCEPTED
     client.wait_mode('AUTO.TAKEOFF', 1.0)
@@ -254,12 +254,12 @@ def test_param_get_set_float_and_int(start_sim):
                     == 4, 3.0, 'COM_OBL_RC_ACT=4')
     # out of range: refused, the value in force is echoed
     client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 1000.0, REAL32))
-    time.sleep(0.3)
+    client.sleep(0.3)
     assert read_param(client, 'MIS_TAKEOFF_ALT').param_value == 3.5
     # the whole list
     names = set()
     client.send(client.mav.param_request_list_encode(client.target, 1))
-    client.wait_for(lambda: [names.add(m.param_id) for _, m in list(client.history) if m.get_type() == 'PARAM_VALUE']
+    client.wait_for(lambda: [names.add(m.param_id) for _, m in client.received('PARAM_VALUE')]
                     and len(names) >= client.latest['PARAM_VALUE'].param_count, 3.0, 'the full parameter list')
     assert {'MAV_TYPE', 'COM_OF_LOSS_T', 'COM_DISARM_PRFLT', 'NAV_ACC_RAD', 'MPC_Z_VEL_MAX_UP'} <= names
 
@@ -269,8 +269,8 @@ def upload(client, items, use_int=True):
     start = len(client.history)
     client.send(client.mav.mission_count_encode(client.target, 1, len(items), MISSION))
     sent = set()
-    deadline = time.monotonic() + 10.0
-    while time.monotonic() < deadline:
+    deadline = client.now() + 10.0
+    while client.now() < deadline:
         for _, m in list(client.history[start:]):
             if m.get_type() in ('MISSION_REQUEST_INT', 'MISSION_REQUEST') and m.seq not in sent:
                 sent.add(m.seq)
@@ -283,8 +283,8 @@ def upload(client, items, use_int=True):
                         client.target, 1, m.seq, LEGACY_FRAME.get(frame, frame), cmd, 0, 1, *params, lat, lon, alt))
             if m.get_type() == 'MISSION_ACK':
                 return m.type
-        time.sleep(0.02)
-    raise AssertionError('no MISSION_ACK within 10 s')
+        client.sleep(0.02)
+    raise AssertionError('no MISSION_ACK within 10 s (simulated); vehicle: %s' % client.describe())
 
 
 def download(client):
@@ -341,12 +341,12 @@ def test_mission_upload_download_clear(start_sim):
 
 def test_four_waypoint_mission_flown_and_landed(start_sim):
     _, client = start_sim(*FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     assert upload(client, square_mission()) == mavlink.MAV_MISSION_ACCEPTED
     assert client.set_mode('AUTO.MISSION') == ACCEPTED
     assert client.arm() == ACCEPTED
-    client.wait_for(lambda: {m.seq for _, m in list(client.history) if m.get_type() == 'MISSION_ITEM_REACHED'}
-                    >= {0, 1, 2, 3, 4}, 60.0, 'items 0..4 reached')
+    client.wait_for(lambda: {m.seq for _, m in client.received('MISSION_ITEM_REACHED')} >= {0, 1, 2, 3, 4}, 60.0,
+                    'items 0..4 reached')
     client.wait_armed(False, 30.0)
     pos = client.latest['LOCAL_POSITION_NED']
     # on the ground PX4's local z reads 0.16-0.18 m (px4-sitl-measured.md)
@@ -362,22 +362,22 @@ def test_two_instances_side_by_side(start_sim):
            for c in (first, second)}
     ids = [ports.system_id(sim.instance) for sim in (first_sim, second_sim)]
     assert ids[0] != ids[1] and src == {ids[0]: ids[0], ids[1]: ids[1]}
-    time.sleep(1.2)
+    first.sleep(1.2)
     assert first.arm() == ACCEPTED
-    time.sleep(1.5)
+    first.sleep(1.5)
     assert first.armed() and not second.armed()
 
 
 def test_garbage_and_other_systems_change_nothing(start_sim):
     sim, client = start_sim(*FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     fcu = ('127.0.0.1', ports.fcu_port(sim.instance))
     rng = __import__('random').Random(7)
     for i in range(2000):
         raw.sendto(bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 300))), fcu)
         if i % 50 == 0:
-            time.sleep(0.005)  # paced, so the kernel does not drop it before the parser sees it
+            time.sleep(0.005)  # paced (wall seconds), so the kernel does not drop it before the parser sees it
     for magic in (0xFD, 0xFE):
         for i in range(200):
             body = bytes(rng.getrandbits(8) for _ in range(rng.randint(5, 60)))
@@ -390,7 +390,7 @@ def test_garbage_and_other_systems_change_nothing(start_sim):
     client.send(client.mav.set_mode_encode(42, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                                            px4_modes.encode('OFFBOARD')))
     client.send(client.mav.command_long_encode(client.target + 1, 1, arm, 0, 1, 0, 0, 0, 0, 0, 0))  # not us either
-    time.sleep(1.5)
+    client.sleep(1.5)
     assert len(client.acks) == acks_before, 'messages for other systems must not be answered'
     assert not client.armed() and client.mode() == 'AUTO.LOITER'
     assert sim.proc.poll() is None, 'the simulator died:\n' + '\n'.join(sim.lines)
@@ -399,7 +399,7 @@ def test_garbage_and_other_systems_change_nothing(start_sim):
 
 def test_bad_setpoints_are_rejected(start_sim):
     _, client = start_sim(*FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     bad = [client.setpoint(0, 0, -2, frame=mavlink.MAV_FRAME_LOCAL_OFFSET_NED),
            # a force: FORCE_SET with the acceleration fields in use
            client.setpoint(0, 0, -2, type_mask=POSITION_AND_YAW & ~IGNORE_ACCELERATION
@@ -409,7 +409,7 @@ def test_bad_setpoints_are_rejected(start_sim):
     for _ in range(30):
         for msg in bad:
             client.send(msg)
-        time.sleep(0.05)
+        client.sleep(0.05)
     assert client.set_mode('OFFBOARD') == ACCEPTED  # disarmed: accepted anyway
     assert client.arm() == TEMPORARILY_REJECTED, 'rejected setpoints must not count as an offboard signal'
 
@@ -417,11 +417,11 @@ def test_bad_setpoints_are_rejected(start_sim):
 def test_force_bit_with_acceleration_ignored_is_a_position_setpoint(start_sim):
     """Measured on PX4 SITL (px4-sitl-measured.md, Answers): taken as a normal position setpoint."""
     _, client = start_sim(*FAST)
-    time.sleep(1.2)
+    client.sleep(1.2)
     with_force = client.setpoint(0, 0, -2, type_mask=POSITION_AND_YAW | mavlink.POSITION_TARGET_TYPEMASK_FORCE_SET)
     for _ in range(10):
         client.send(with_force)
-        time.sleep(0.05)
+        client.sleep(0.05)
     assert client.set_mode('OFFBOARD') == ACCEPTED
     assert client.arm() == ACCEPTED, 'the setpoint counts as the offboard signal'
 
