@@ -158,7 +158,13 @@ class Client:
         return self.clock.now()
 
     def sleep(self, sim_s):
+        """Let sim_s simulated seconds pass, then read what the vehicle sent up to their end (for at most
+        CATCH_UP_WALL_S more): a count over the pause must not miss what this process has yet to read."""
+        end = self.now() + sim_s
         self.clock.sleep(sim_s)
+        give_up = time.monotonic() + self.CATCH_UP_WALL_S
+        while self.received_s < end and time.monotonic() < give_up:
+            time.sleep(self.POLL_MIN_WALL_S)
 
     def received(self, msg_type):
         """[(simulated time, msg)] of every `msg_type` received so far."""
