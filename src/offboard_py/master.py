@@ -55,3 +55,17 @@ def wait_for_master(node_name, timeout_s=0.0, is_online=rosgraph.is_master_onlin
             last_said = now
         sleep(POLL_PERIOD_S)
     say('%s: ROS master found at %s' % (node_name, uri))
+
+
+def await_master_from_argv(node_name, argv=None):
+    """What a node's main() does first: wait for the master, bounded by `_master_timeout:=` in argv.
+    None once the master answers; else the exit code, having said why (2: a bad _master_timeout,
+    1: no master in time, 0: Ctrl-C while waiting)."""
+    try:
+        wait_for_master(node_name, master_timeout_from_argv(sys.argv if argv is None else argv))
+    except (ValueError, MasterTimeout) as err:
+        print(err, file=sys.stderr)
+        return 2 if isinstance(err, ValueError) else 1
+    except KeyboardInterrupt:
+        return 0
+    return None

@@ -17,7 +17,7 @@ from mavros_msgs.msg import State
 from mavros_msgs.srv import CommandBool, SetMode
 
 from offboard_py import frames
-from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
+from offboard_py.master import await_master_from_argv
 from offboard_py.offboard import OFFBOARD, OffboardLogic, ParamError, Request, VehicleState, validate_config
 
 NODE_NAME = 'offb_node_py'
@@ -102,13 +102,9 @@ class OffbNode:
 
 def main():
     """Run the node; return the process exit code (2 for a bad parameter)."""
-    try:
-        wait_for_master(NODE_NAME, master_timeout_from_argv(sys.argv))
-    except (ValueError, MasterTimeout) as err:
-        print(err, file=sys.stderr)
-        return 2 if isinstance(err, ValueError) else 1
-    except KeyboardInterrupt:
-        return 0
+    exit_code = await_master_from_argv(NODE_NAME)
+    if exit_code is not None:
+        return exit_code
     try:
         rospy.init_node(NODE_NAME)
         try:

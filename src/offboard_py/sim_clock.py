@@ -20,7 +20,7 @@ import time
 import rospy
 from rosgraph_msgs.msg import Clock
 
-from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
+from offboard_py.master import await_master_from_argv
 from offboard_py.simclock import SimClock, SpeedError, parse_speed
 
 NODE_NAME = 'sim_clock'
@@ -66,13 +66,9 @@ def _read_float(name, default, check, what):
 
 
 def main():
-    try:
-        wait_for_master(NODE_NAME, master_timeout_from_argv(sys.argv))
-    except (ValueError, MasterTimeout) as err:
-        print(err, file=sys.stderr)
-        return 2 if isinstance(err, ValueError) else 1
-    except KeyboardInterrupt:
-        return 0
+    exit_code = await_master_from_argv(NODE_NAME)
+    if exit_code is not None:
+        return exit_code
     try:
         rospy.init_node(NODE_NAME)
         speed = parse_speed(rospy.get_param('~speed', 1.0), 'parameter ~speed')

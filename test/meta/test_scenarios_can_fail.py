@@ -12,17 +12,22 @@ import xml.etree.ElementTree as ET
 from offboard_py.testing.ports import free_instances
 
 
-def test_takeoff_scenario_fails_for_a_node_without_prestream():
+def takeoff_failures(*launch_args):
+    """Run takeoff.test on a free instance with launch_args; the text of its JUnit failures ('' if none)."""
     instance, = free_instances(1)
     with tempfile.TemporaryDirectory() as results:
         out = subprocess.run(['rostest', '--results-base-dir', results, 'offboard_py', 'takeoff.test',
-                              'node_type:=broken_offb_node.py', 'deadline:=25', 'instance:=%d' % instance],
+                              'instance:=%d' % instance] + list(launch_args),
                              capture_output=True, text=True, timeout=240)
         files = [os.path.join(d, f) for d, _, fs in os.walk(results) for f in fs if f.startswith('rosunit-')]
         assert files, 'no result file; rostest said:\n' + out.stdout[-3000:] + out.stderr[-3000:]
         failures = [node for f in files for node in ET.parse(f).getroot().iter('failure')]
-    assert failures, 'the takeoff scenario passed with a broken node'
-    message = ' '.join((node.get('message') or '') + (node.text or '') for node in failures)
+    return ' '.join((node.get('message') or '') + (node.text or '') for node in failures)
+
+
+def test_takeoff_scenario_fails_for_a_node_without_prestream():
+    message = takeoff_failures('node_type:=broken_offb_node.py', 'deadline:=25')
+    assert message, 'the takeoff scenario passed with a broken node'
     assert 'OFFBOARD and armed did not happen' in message, message
     assert 'setpoints streamed by the node: 0' in message, message
     assert 'disarmed' in message, message
@@ -31,14 +36,6 @@ def test_takeoff_scenario_fails_for_a_node_without_prestream():
 def test_a_machine_that_cannot_keep_up_fails_the_scenario_saying_so():
     """At a speed this machine cannot hold (100x: /clock would tick 10 000 times a wall second), the
     scenario fails on the clock guard, naming the lag and the speed, rather than on a failsafe."""
-    instance, = free_instances(1)
-    with tempfile.TemporaryDirectory() as results:
-        out = subprocess.run(['rostest', '--results-base-dir', results, 'offboard_py', 'takeoff.test',
-                              'speed:=100', 'instance:=%d' % instance],
-                             capture_output=True, text=True, timeout=240)
-        files = [os.path.join(d, f) for d, _, fs in os.walk(results) for f in fs if f.startswith('rosunit-')]
-        assert files, 'no result file; rostest said:\n' + out.stdout[-3000:] + out.stderr[-3000:]
-        failures = [node for f in files for node in ET.parse(f).getroot().iter('failure')]
-    assert failures, 'the takeoff scenario passed at 100x on this machine: the guard was not needed'
-    message = ' '.join((node.get('message') or '') + (node.text or '') for node in failures)
+    message = takeoff_failures('speed:=100')
+    assert message, 'the takeoff scenario passed at 100x on this machine: the guard was not needed'
     assert "behind the vehicles' clock at 100x" in message and 'cannot keep up' in message, message

@@ -13,7 +13,7 @@ import rospy
 
 from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
-from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
+from offboard_py.master import await_master_from_argv
 from offboard_py.mavlink_link import MavlinkLink, UrlError
 from offboard_py.bridge import (altitude, battery, command, diagnostics, global_position, home_position, imu,
                                 local_position, mavlink_passthrough, mission, param, rc_io, setpoint,
@@ -100,13 +100,9 @@ def ros_clock():
 
 
 def main():
-    try:
-        wait_for_master('mavros', master_timeout_from_argv(sys.argv))
-    except (ValueError, MasterTimeout) as err:
-        print(err, file=sys.stderr)
-        return 2 if isinstance(err, ValueError) else 1
-    except KeyboardInterrupt:
-        return 0
+    exit_code = await_master_from_argv('mavros')
+    if exit_code is not None:
+        return exit_code
     try:
         rospy.init_node('mavros')
         handler = _ToRosout()
