@@ -1,5 +1,6 @@
 """A child process whose output (stdout and stderr) is collected line by line, with bounded waits."""
 
+import os
 import signal
 import subprocess
 import threading
@@ -7,11 +8,18 @@ import time
 
 
 class OutputProcess:
-    """Popen(args) with its output read by a thread into `lines`."""
+    """Popen(args) with its output read by a thread into `lines`.
 
-    def __init__(self, args, env=None):
+    With new_session=True the child leads a process group of its own, and stop() signals the
+    whole group (as Ctrl-C in a terminal does) and kills what is left of it: a roslaunch killed
+    alone would leave its nodes running.
+    """
+
+    def __init__(self, args, env=None, new_session=False):
         self.args = list(args)
-        self.proc = subprocess.Popen(self.args, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.new_session = new_session
+        self.proc = subprocess.Popen(self.args, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                     start_new_session=new_session)
         self.lines = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -50,20 +58,35 @@ class OutputProcess:
         try:
             code = self.proc.wait(timeout=timeout_s)
         except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
+            self._kill()
             return None
         self._reader.join(1.0)
         return code
 
-    def stop(self, sig=signal.SIGTERM, timeout_s=5.0):
-        """Send sig unless it has exited, kill it after timeout_s; return the exit code."""
-        if self.proc.poll() is None:
+    def _signal(self, sig):
+        """sig to the child, or with new_session to its group (no error once the group is gone)."""
+        if not self.new_session:
             self.proc.send_signal(sig)
+            return
+        try:
+            os.killpg(self.proc.pid, sig)
+        except ProcessLookupError:
+            pass
+
+    def _kill(self):
+        self._signal(signal.SIGKILL)
+        self.proc.wait()
+
+    def stop(self, sig=signal.SIGTERM, timeout_s=5.0):
+        """Send sig unless it has exited, kill it after timeout_s; return the exit code.
+        With new_session, sig goes to the group, and whatever of the group outlives the child is killed."""
+        if self.proc.poll() is None:
+            self._signal(sig)
             try:
                 self.proc.wait(timeout=timeout_s)
             except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+                self._kill()
+        if self.new_session:
+            self._signal(signal.SIGKILL)
         self._reader.join(1.0)
         return self.proc.returncode
