@@ -286,8 +286,8 @@ class BridgeTest(OffboardTestCase):
         self.wait_for_connected(self.sim, 15.0)
         home = rospy.wait_for_message('mavros/home_position/home', HomePosition, 20.0)
         self.assertAlmostEqual(home.geo.latitude, 47.397742, places=5)
-        # PX4's home is the estimate where it was set: on the ground the local z reads about
-        # 0.17 m (px4-sitl-measured.md), so home is a little off the spawn altitude 488 m
+        # PX4's home is the estimate where it was set: on the ground the estimate reads about
+        # 0.17 m above its origin (px4-sitl-measured.md), so home is a little off the spawn altitude 488 m
         self.assertAlmostEqual(home.geo.altitude, 488.0, delta=0.5)
         fix = rospy.wait_for_message('mavros/global_position/global', NavSatFix, 5.0)
         self.assertAlmostEqual(fix.longitude, 8.545594, places=4)

@@ -224,12 +224,12 @@ def test_altitude_is_never_nan_and_home_is_set_again_at_arming():
     f.request_arming(True, False, t)
     home_armed = b.build('HOME_POSITION', f.status(t), t)
     assert (home_armed.x, home_armed.y, home_armed.z) != (home_before.x, home_before.y, home_before.z)
-    assert home_armed.z == pytest.approx(0.17, abs=0.05), 'home where PX4 reads the ground: z 0.17 m'
+    assert home_armed.z == pytest.approx(-0.17, abs=0.05), 'home where PX4 reads the ground: z (NED) -0.17 m'
     for seconds in (0.5, 6.0, 10.0):
         t = fly(f, t, seconds, hover_setpoint())
         altitude = b.build('ALTITUDE', f.status(t), t)
         values = (altitude.altitude_monotonic, altitude.altitude_amsl, altitude.altitude_local,
                   altitude.altitude_relative, altitude.altitude_terrain, altitude.bottom_clearance)
         assert all(math.isfinite(v) for v in values), values
-    assert altitude.altitude_relative == pytest.approx(2.17, abs=0.15), 'above home (the ground)'
+    assert altitude.altitude_relative == pytest.approx(1.83, abs=0.15), 'above home, which is 0.17 m above the origin'
     assert altitude.altitude_local == pytest.approx(2.0, abs=0.15)

@@ -15,8 +15,8 @@ thrust vector following the command with the motor constant SIH_T_TAU plus the a
 An optional gust (a seeded Ornstein-Uhlenbeck acceleration) makes the vehicle wander in hover
 as PX4 SITL's does; the estimate the controller flies and telemetry reports carries a little
 white noise (`Estimator`). Both are off for an ideal vehicle.
-The ground is flat at z = `ground_z` (local NED): PX4's estimate reads a little below home on
-the ground. A land detector in PX4's three stages (ground contact, maybe landed, landed) with
+The ground is flat at z = `ground_z` (local NED): PX4's estimate on the ground reads a little
+above its origin (NED z negative). A land detector in PX4's three stages (ground contact, maybe landed, landed) with
 its thrust thresholds says `landed`.
 
 All in local NED (m, m/s), yaw in rad from north. Time is passed in; nothing is read
@@ -38,7 +38,7 @@ GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
 LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
 MINIMAL_THRUST_FRACTION = 0.3  # ... "minimal thrust" (maybe landed)
 TAKEOFF_TRIGGER_M = 0.2        # a position setpoint this far above asks for a takeoff (PX4)
-GROUND_Z_M = 0.17              # PX4 SITL's local z on the ground (measured 0.16-0.18 m)
+GROUND_Z_M = -0.17             # PX4 SITL's local z (NED) on the ground: its estimate reads 0.16-0.18 m above the origin
 # hover wander and estimator noise of PX4 SITL's size (px4-sitl-measured.md: z +-0.1 m, xy up to 0.6 m)
 GUST_XY, GUST_Z, GUST_TAU_S = 0.5, 0.25, 4.0   # m/s^2 standard deviation, correlation time
 NOISE_POSITION_XY, NOISE_POSITION_Z, NOISE_VELOCITY = 0.02, 0.01, 0.03  # m, m, m/s (1 sigma)
