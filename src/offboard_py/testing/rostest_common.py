@@ -12,6 +12,7 @@ side has fallen behind the vehicles' clock (the machine cannot keep up at that s
 than letting it report a failsafe that the lag, not the vehicle, caused.
 """
 
+import math
 import threading
 import time
 import unittest
@@ -83,6 +84,7 @@ class Vehicle:
         self.velocity = None
         self.states = []      # (time, State) history
         self.poses = []       # (time, z ENU)
+        self.positions = []   # (time, (x, y, z) ENU)
         self.velocities = []  # (time, vz ENU)
         self.setpoints = []   # times of the setpoints the node under test sent on setpoint_position/local
         self.subs = [
@@ -109,7 +111,10 @@ class Vehicle:
     def _on_pose(self, msg):
         with self.lock:
             self.pose = msg
-            self.poses.append((now(), msg.pose.position.z))
+            p = msg.pose.position
+            t = now()
+            self.poses.append((t, p.z))
+            self.positions.append((t, (p.x, p.y, p.z)))
 
     def _on_velocity(self, msg):
         with self.lock:
@@ -135,6 +140,18 @@ class Vehicle:
 
     def z(self):
         return self.pose.pose.position.z if self.pose is not None else float('nan')
+
+    def offset_from(self, position_enu):
+        """(horizontal, vertical) metres from the last pose to position_enu (x, y, z); inf before the first pose."""
+        if self.pose is None:
+            return float('inf'), float('inf')
+        p = self.pose.pose.position
+        return _offset((p.x, p.y, p.z), position_enu)
+
+
+def _offset(position, target):
+    """(horizontal, vertical) distance in metres between two (x, y, z)."""
+    return math.hypot(position[0] - target[0], position[1] - target[1]), abs(position[2] - target[2])
 
 
 class OffboardTestCase(unittest.TestCase):
@@ -205,6 +222,64 @@ class OffboardTestCase(unittest.TestCase):
         self.assertLessEqual(abs(worst - z_m), tolerance_m,
                              'did not hold %.2f +- %.2f m for %.0f s: reached %.3f m (%s)'
                              % (z_m, tolerance_m, duration_s, worst, vehicle.describe()))
+
+    def wait_for_position(self, vehicle, position_enu, timeout_s, horizontal_m=1.0, vertical_m=0.2):
+        """"Reached": the vehicle within horizontal_m (in x, y) and vertical_m (in z) of position_enu,
+        an (x, y, z) ENU in metres, within timeout_s; else fail saying where it was. The defaults
+        allow PX4 SITL's hover wander (xy up to 0.6 m, z +- 0.1 m)."""
+        def within():
+            horizontal, vertical = vehicle.offset_from(position_enu)
+            return horizontal <= horizontal_m and vertical <= vertical_m
+        self.wait_until(within, timeout_s, 'position ENU (%.2f, %.2f, %.2f) +- %.2f m horizontally, +- %.2f m '
+                        'vertically' % (tuple(position_enu) + (horizontal_m, vertical_m)), [vehicle])
+
+    def assert_holds_position(self, vehicle, position_enu, duration_s, horizontal_m=1.0, vertical_m=0.2):
+        """"Held": every pose for duration_s within horizontal_m (x, y) and vertical_m (z) of
+        position_enu (x, y, z ENU, m), at least 10 poses a second; else fail with the pose furthest
+        out and when it came."""
+        start = now()
+        self.pause(duration_s)
+        with vehicle.lock:
+            samples = [(t, p) for t, p in vehicle.positions if t >= start]
+        self.assertGreater(len(samples), duration_s * 10, 'too few poses (%d) in %.0f s: %s'
+                           % (len(samples), duration_s, vehicle.describe()))
+
+        def excess(sample):
+            horizontal, vertical = _offset(sample[1], position_enu)
+            return max(horizontal / horizontal_m, vertical / vertical_m)
+        t, worst = max(samples, key=excess)
+        self.assertLessEqual(excess((t, worst)), 1.0,
+                             'did not hold ENU (%.2f, %.2f, %.2f) +- %.2f m horizontally, +- %.2f m vertically for '
+                             '%.0f s: at (%.2f, %.2f, %.2f) %.1f s in (%s)'
+                             % (tuple(position_enu) + (horizontal_m, vertical_m, duration_s) + tuple(worst)
+                                + (t - start, vehicle.describe())))
+
+    def wait_for_failsafe(self, vehicle, loss_timeout_s=1.0, slack_s=0.3, state_period_s=1.0, timeout_s=10.0):
+        """Failsafe timing, once the node under test has stopped streaming setpoints (killed, or told
+        to stop): the vehicle leaves OFFBOARD not before loss_timeout_s (PX4's COM_OF_LOSS_T, 1 s
+        in PX4 and in the simulator) after the last setpoint the node sent on
+        setpoint_position/local, and not after loss_timeout_s + slack_s + state_period_s (mavros
+        publishes the mode with each HEARTBEAT, 1 Hz, so it tells of a change up to a period late).
+        Waits at most timeout_s; returns (delay_s, mode): from the last setpoint to the first state
+        out of OFFBOARD, and that mode (AUTO.RTL without RC, as PX4's NAV_RCL_ACT)."""
+        def left_offboard():
+            setpoints = vehicle.setpoints
+            if not setpoints:
+                return None
+            return next(((t, s.mode) for t, s in vehicle.states_since(setpoints[-1]) if s.mode != 'OFFBOARD'), None)
+        self.wait_until(left_offboard, timeout_s, 'leaving OFFBOARD after the last setpoint of the node under test '
+                        '(%d seen)' % len(vehicle.setpoints), [vehicle])
+        when, mode = left_offboard()
+        delay = when - vehicle.setpoints[-1]
+        self.assertGreaterEqual(delay, loss_timeout_s - 0.05,
+                                'left OFFBOARD for %s %.2f s after the last setpoint, before COM_OF_LOSS_T %.1f s: '
+                                'the failsafe was not the offboard loss (%s)' % (mode, delay, loss_timeout_s,
+                                                                                 vehicle.describe()))
+        self.assertLessEqual(delay, loss_timeout_s + slack_s + state_period_s,
+                             'left OFFBOARD for %s %.2f s after the last setpoint: later than COM_OF_LOSS_T %.1f s '
+                             '+ %.1f s + a state period %.1f s (%s)' % (mode, delay, loss_timeout_s, slack_s,
+                                                                        state_period_s, vehicle.describe()))
+        return delay, mode
 
     def call_service(self, proxy, timeout_s, **request):
         """proxy(**request), failing with the service's name when it is not there, or has not
