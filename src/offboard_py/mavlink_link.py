@@ -2,10 +2,12 @@
 
 - `parse_udp_url()` reads mavros's URL syntax `udp://[bind_host][:port]@[remote_host][:port]`.
 - `MavlinkLink` owns a UDP socket and a pymavlink codec. It learns its remote from the
-  packets it receives, as mavros's UDP link and PX4's do (so a client bound on 14540
-  answers PX4 wherever PX4 sends from), parses every datagram, and hands each message
-  to the handlers registered for its type: a plugin is a set of handlers, not a branch
-  in one long if/elif chain. Malformed bytes are counted and dropped, never raised.
+  packets it receives in one of two ways: as mavros's UDP link does (every sender of a valid
+  frame becomes the remote: a client bound on 14540 answers PX4 wherever PX4 sends from), or
+  as PX4's does (`lock_remote`: the first datagram's sender becomes the remote for good). It
+  parses every datagram and hands each message to the handlers registered for its type: a
+  plugin is a set of handlers, not a branch in one long if/elif chain. Malformed bytes are
+  counted and dropped, never raised.
 - `enable_signing()` turns on MAVLink 2 signing (offboard_py.signing does the work).
 
 It knows nothing of ROS or of the simulator; the caller owns the receive loop
@@ -14,6 +16,7 @@ It knows nothing of ROS or of the simulator; the caller owns the receive loop
 
 import collections
 import errno
+import ipaddress
 import logging
 import socket
 import threading
@@ -32,6 +35,9 @@ DEFAULT_BIND_HOST = '127.0.0.1'
 MAX_DATAGRAM = 65535
 # What one batched datagram may carry: within an Ethernet MTU
 MAX_BATCH_BYTES = 1400
+# PX4's UDP link (mavlink_receiver.cpp): with a default partner not on this host, the partner is
+# taken from the first datagram after this long since the link started (seconds of its clock)
+LOCK_GRACE_S = 3.0
 
 log = logging.getLogger(__name__)
 
@@ -92,6 +98,17 @@ def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=
     return UdpUrl(bind, remote, broadcast, permanent)
 
 
+def _on_this_host(address):
+    """True for a loopback or unspecified (0.0.0.0: this host) address, or none."""
+    if address is None:
+        return True
+    try:
+        host = ipaddress.ip_address(address[0])
+    except ValueError:
+        return False
+    return host.is_loopback or host.is_unspecified
+
+
 class _Sink:
     """pymavlink writes packed frames here; the link sends them itself."""
 
@@ -103,7 +120,10 @@ class MavlinkLink:
     """A MAVLink 2 UDP endpoint with handler dispatch and remote learning."""
 
     def __init__(self, bind, remote=None, system_id=1, component_id=1, learn_remote=True, broadcast=False,
-                 name='udp'):
+                 name='udp', lock_remote=False, clock=time.monotonic):
+        """`remote`: where to send until one is learned (None: nowhere). `learn_remote`: follow every
+        sender of a valid frame (mavros). `lock_remote`: PX4's rule instead (see `_lock_partner`), on
+        `clock` (seconds)."""
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         if broadcast:
             self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
@@ -115,7 +135,15 @@ class MavlinkLink:
         self.sock.setblocking(False)
         self.bind = self.sock.getsockname()
         self.remote = self._resolve(remote) if remote else None
-        self.learn_remote = learn_remote
+        self.learn_remote = learn_remote and not lock_remote
+        self.lock_remote = lock_remote
+        self.partner_locked = False
+        self._clock = clock
+        # PX4 starts with 127.0.0.1 and takes the first datagram's sender at once; a default
+        # partner elsewhere is replaced only by a datagram LOCK_GRACE_S after the start
+        self._lock_after_s = None
+        if lock_remote and not _on_this_host(self.remote):
+            self._lock_after_s = clock() + LOCK_GRACE_S
         self.name = name  # for the log, as mavconn names its links (udp0, udp1)
         self.remote_changes = 0
         self.mav = mavlink.MAVLink(_Sink(), srcSystem=system_id, srcComponent=component_id)
@@ -232,6 +260,12 @@ class MavlinkLink:
         CRC-checked and counted, as the MAVLink C library frames what it does not use. With
         signing on, every frame is decoded: its signature decides whether it counts."""
         self.stats['datagrams'] += 1
+        if self.lock_remote and sender is not None:
+            if not self.partner_locked and not self._lock_partner(sender):
+                self.stats['before_partner'] += 1
+                return  # PX4 reads nothing until it knows its partner
+            if sender != self.remote:
+                self.stats['other_senders'] += 1  # read, but the replies still go to the partner
         decode_all = self.signing.active
         wanted = self._wanted_ids
         messages, undecoded, bad = [], 0, 0
@@ -269,6 +303,20 @@ class MavlinkLink:
         for msg in messages:
             for handler in self.handlers.get(msg.get_type(), ()):
                 self._call(handler, msg)
+
+    def _lock_partner(self, sender):
+        """PX4's UDP rule (mavlink_receiver.cpp, v1.10 to main): until the partner is known, the sender
+        of a datagram becomes the partner, for good, when the default partner is 127.0.0.1 (PX4 SITL's,
+        so the first datagram whatever it holds, taken before parsing) or once LOCK_GRACE_S have passed
+        since the link started; a datagram that does not lock it is dropped unread. PX4 never moves the
+        partner again: a flood from another port is read, but the telemetry and replies stay where
+        they went. True once locked."""
+        if self._lock_after_s is not None and self._clock() < self._lock_after_s:
+            return False
+        self.remote = sender
+        self.partner_locked = True
+        log.info('%s: partner address %s:%d (kept for good, as PX4 does)', self.name, sender[0], sender[1])
+        return True
 
     def _count_sequence(self, frame):
         """Count the frames a sender's sequence numbers say were lost (`dropped`), per sender."""

@@ -92,9 +92,15 @@ def test_fuzz_changes_nothing(start_sim):
     started = client.now()
     fcu = ('127.0.0.1', ports.fcu_port(sim.instance))
     assert mavlink_fuzz.send_paced(raw, fcu, hostile_frames(rng, FRAMES, client.target)) == FRAMES
+    ended = client.now()
     assert sim.proc.poll() is None, 'the simulator died:\n' + '\n'.join(sim.lines[-20:])
     assert not any('Traceback' in line for line in sim.lines), '\n'.join(sim.lines[-20:])
-    # take the link back (valid frames from the fuzzer moved the simulator's remote, as on PX4)
+    # The partner is the client, which spoke first: PX4 keeps it, so the flood from another port
+    # never diverts the telemetry (ATTITUDE is sent at 100 Hz; a tenth of that is plenty)
+    client.sleep(0.5)
+    during = sum(1 for t, _ in client.by_type.get('ATTITUDE', ()) if started <= t <= ended)
+    assert during >= 10 * (ended - started), ('%d ATTITUDE in %.1f s of flood: the telemetry went elsewhere'
+                                              % (during, ended - started))
     after = {name: read_param(client, name) for name in before}
     assert after == before, 'parameters changed: %s -> %s' % (before, after)
     client.wait_for(lambda: client.latest['HEARTBEAT'] and client.now() - started > 0, 3.0, 'heartbeat')

@@ -370,6 +370,9 @@ def test_two_instances_side_by_side(start_sim):
 
 def test_garbage_and_other_systems_change_nothing(start_sim):
     sim, client = start_sim(*FAST)
+    # the client speaks first, as mavros does at start: PX4 keeps the first sender it hears from as
+    # its partner, so garbage sent first would take the link (on PX4 SITL too)
+    client.send(client.mav.heartbeat_encode(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0))
     client.sleep(1.2)
     raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     fcu = ('127.0.0.1', ports.fcu_port(sim.instance))

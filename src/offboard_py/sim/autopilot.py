@@ -63,7 +63,9 @@ class SimulatedPx4:
         self.flight = Flight(self.params, self.frame, self.t(now), ready_delay_s=ready_delay_s, rc=rc)
         local_port = SITL_LOCAL_PORT + instance if local_port is None else local_port
         remote_port = SITL_REMOTE_PORT + instance if remote_port is None else remote_port
-        self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1)
+        # Both links keep the first sender they hear from, as PX4's UDP links do (mavlink_link._lock_partner)
+        self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1,
+                                name='onboard', lock_remote=True, clock=clock)
         self.mav = self.link.mav
         self.links = [self.link]
         self.gcs_link = None
@@ -71,7 +73,8 @@ class SimulatedPx4:
             gcs_port = GCS_LOCAL_PORT + instance if gcs_port is None else gcs_port
             gcs_remote_port = GCS_REMOTE_PORT if gcs_remote_port is None else gcs_remote_port
             try:
-                self.gcs_link = MavlinkLink((bind_host, gcs_port), (bind_host, gcs_remote_port), self.system_id, 1)
+                self.gcs_link = MavlinkLink((bind_host, gcs_port), (bind_host, gcs_remote_port), self.system_id, 1,
+                                            name='GCS', lock_remote=True, clock=clock)
             except OSError:
                 self.link.close()
                 raise

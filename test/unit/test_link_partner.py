@@ -1,0 +1,79 @@
+"""The simulated PX4's UDP partner rule (MavlinkLink(lock_remote=True)), as PX4's mavlink_receiver.cpp has it:
+the first datagram's sender is the partner for good, taken before parsing; with a default partner not on this
+host, only a datagram at least 3 s after the start is taken, and what comes before is dropped unread."""
+
+from offboard_py import wire
+from offboard_py.dialect import mavlink
+from offboard_py.mavlink_link import LOCK_GRACE_S, MavlinkLink
+
+BRIDGE, FLOODER, GCS = ('127.0.0.1', 14540), ('127.0.0.1', 40001), ('127.0.0.1', 40002)
+
+
+class FakeClock:
+    def __init__(self):
+        self.now_s = 100.0
+
+    def __call__(self):
+        return self.now_s
+
+
+def heartbeat(system_id=255):
+    msg = mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
+    return wire.encode(msg, 0, system_id, 190)
+
+
+def sim_link(remote=('127.0.0.1', 14540), clock=None):
+    return MavlinkLink(('127.0.0.1', 0), remote, system_id=1, component_id=1, lock_remote=True,
+                       clock=clock or FakeClock())
+
+
+def test_first_datagram_locks_even_junk_and_nothing_moves_it():
+    link = sim_link()
+    try:
+        heard = []
+        link.on('HEARTBEAT', heard.append)
+        link.handle_datagram(b'\x00junk', FLOODER)  # junk first: PX4 takes its sender before parsing
+        assert link.remote == FLOODER and link.partner_locked
+        link.handle_datagram(heartbeat(), BRIDGE)  # a valid frame from elsewhere is read ...
+        assert len(heard) == 1 and link.remote == FLOODER  # ... but the replies stay with the partner
+        assert link.stats['other_senders'] == 1
+    finally:
+        link.close()
+
+
+def test_a_flood_from_another_port_does_not_divert_the_partner():
+    link = sim_link()
+    try:
+        link.handle_datagram(heartbeat(), BRIDGE)
+        for _ in range(50):
+            link.handle_datagram(heartbeat(42), FLOODER)
+        assert link.remote == BRIDGE and link.stats['other_senders'] == 50
+    finally:
+        link.close()
+
+
+def test_default_partner_elsewhere_waits_three_seconds():
+    clock = FakeClock()
+    link = sim_link(remote=('10.0.0.9', 14540), clock=clock)
+    try:
+        heard = []
+        link.on('HEARTBEAT', heard.append)
+        link.handle_datagram(heartbeat(), GCS)
+        assert link.remote == ('10.0.0.9', 14540) and not heard, 'read before the partner is known'
+        assert link.stats['before_partner'] == 1
+        clock.now_s += LOCK_GRACE_S
+        link.handle_datagram(heartbeat(), GCS)
+        assert link.remote == GCS and len(heard) == 1
+    finally:
+        link.close()
+
+
+def test_without_the_lock_a_valid_frame_moves_the_remote_as_mavros_does():
+    link = MavlinkLink(('127.0.0.1', 0), ('127.0.0.1', 14580), system_id=1, component_id=1)
+    try:
+        link.handle_datagram(b'\x00junk', FLOODER)
+        assert link.remote == ('127.0.0.1', 14580), 'junk does not move it'
+        link.handle_datagram(heartbeat(), FLOODER)
+        assert link.remote == FLOODER
+    finally:
+        link.close()
