@@ -18,8 +18,8 @@ ACCEPTED = M.MAV_RESULT_ACCEPTED
 FRAME = LocalFrame(47.0, 8.0, 500.0)
 
 
-def make(ready_delay_s=0.0, **overrides):
-    return Flight(ParamStore(dict(overrides)), FRAME, 0.0, ready_delay_s=ready_delay_s)
+def make(ready_delay_s=0.0, rc=False, **overrides):
+    return Flight(ParamStore(dict(overrides)), FRAME, 0.0, ready_delay_s=ready_delay_s, rc=rc)
 
 
 def builder(flight):
@@ -140,7 +140,7 @@ def test_battery_status_message_and_charge_states():
 # -- messages from a Status --------------------------------------------------------------------
 
 def test_every_stream_builds_on_the_ground_and_in_the_air():
-    f = make()
+    f = make(rc=True)  # RC_CHANNELS needs an RC link
     b = builder(f)
     for name in sorted(telemetry.STREAMABLE | telemetry.ON_REQUEST):
         assert b.build(name, f.status(1.0), 1.0) is not None, name
@@ -150,6 +150,17 @@ def test_every_stream_builds_on_the_ground_and_in_the_air():
     t = fly(f, 0.0, 12.0, hover_setpoint())
     for name in sorted(telemetry.STREAMABLE):
         assert b.build(name, f.status(t), t) is not None, name
+
+
+def test_rc_channels_only_with_an_rc_link():
+    """PX4 sends RC_CHANNELS (20 Hz onboard, 5 Hz to a ground station) only while RC input updates."""
+    assert telemetry.ONBOARD_RATES_HZ['RC_CHANNELS'] == 20.0 and telemetry.GCS_RATES_HZ['RC_CHANNELS'] == 5.0
+    assert builder(make(rc=False)).build('RC_CHANNELS', make(rc=False).status(1.0), 1.0) is None
+    f = make(rc=True)
+    msg = builder(f).build('RC_CHANNELS', f.status(1.0), 1.0)
+    assert msg.chancount == 8 and msg.time_boot_ms == 1000
+    assert (msg.chan1_raw, msg.chan2_raw, msg.chan3_raw, msg.chan4_raw, msg.chan5_raw) == (1500, 1500, 1500, 1500, 1000)
+    assert msg.chan9_raw == 0xFFFF and msg.rssi == 254
 
 
 def test_hover_telemetry_is_consistent():

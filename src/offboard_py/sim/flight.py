@@ -77,6 +77,7 @@ class Status(NamedTuple):
     battery_remaining: float      # 0..1
     battery_voltage: float        # V
     home: tuple = (0.0, 0.0, 0.0)  # local NED of home, m: where the vehicle was armed (or booted)
+    rc: bool = False               # an RC link is simulated (sticks centred)
 
     @property
     def custom_mode(self):
@@ -237,4 +238,4 @@ class Flight:
                       c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
-                      self.home)
+                      self.home, c.rc)

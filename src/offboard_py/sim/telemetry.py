@@ -51,6 +51,7 @@ ONBOARD_RATES_HZ = {
     'BATTERY_STATUS': 0.5,
     'VIBRATION': 0.5,
     'CURRENT_MODE': 0.5,
+    'RC_CHANNELS': 20.0,  # only with an RC link (sim_px4.py --rc): PX4 sends it when input_rc updates
 }
 # PX4's MAVLINK_MODE_NORMAL (mavlink_main.cpp, configure_streams_to_default), the streams of it
 # we can build; MISSION_CURRENT comes from PX4's mission manager on every link at 1 Hz
@@ -79,6 +80,7 @@ GCS_RATES_HZ = {
     'ESTIMATOR_STATUS': 0.5,
     'PING': 0.1,
     'VIBRATION': 0.1,
+    'RC_CHANNELS': 5.0,
 }
 FIXED_RATE = frozenset(('HEARTBEAT',))
 # One-shot messages that MAV_CMD_REQUEST_MESSAGE can ask for besides the streams
@@ -129,6 +131,8 @@ GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM_S = 500, 800, 200
 RANGEFINDER_MIN_CM, RANGEFINDER_MAX_CM = 10, 4000
 PWM_DISARMED, PWM_MIN, PWM_MAX = 1000, 1000, 2000
 MOTORS = 4
+RC_CHANNEL_COUNT, RC_STICKS_US, RC_SWITCH_LOW_US, RC_UNUSED = 8, [1500] * 4, 1000, 0xFFFF
+RC_RSSI = 254  # full signal (255 would be "unknown")
 TEMPERATURE_C = 25.0
 HIGHRES_IMU_ALL_FIELDS = 0x1FFF  # fields_updated: every one of the 13 fields is fresh
 # ODOMETRY covariances: upper triangles of 6x6 matrices, row-major; only the diagonal is known
@@ -386,6 +390,14 @@ class TelemetryBuilder:
         throttle = int(round(st.thrust * 100)) if st.armed else 0
         # no airspeed sensor and no wind: airspeed is the ground speed
         return self.mav.vfr_hud_encode(speed, speed, heading, throttle, self._amsl(st), -st.velocity[2])
+
+    def _rc_channels(self, st, now_s):
+        if not st.rc:  # PX4 sends RC_CHANNELS only while an RC input updates
+            return None
+        # the simulated transmitter: sticks centred (throttle too: PX4's position modes hold), switches low
+        channels = RC_STICKS_US + [RC_SWITCH_LOW_US] * (RC_CHANNEL_COUNT - len(RC_STICKS_US))
+        channels += [RC_UNUSED] * (18 - RC_CHANNEL_COUNT)
+        return self.mav.rc_channels_encode(self.time_boot_ms(now_s), RC_CHANNEL_COUNT, *channels, RC_RSSI)
 
     def _extended_sys_state(self, st, now_s):
         return self.mav.extended_sys_state_encode(mavlink.MAV_VTOL_STATE_UNDEFINED, st.landed_state)
