@@ -13,6 +13,7 @@ import re
 import shlex
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 import xml.etree.ElementTree as ET
@@ -110,3 +111,15 @@ def test_the_example_fails_when_the_node_flies_elsewhere(workspace):
     message = ' '.join(failures)
     assert 'position ENU (0.00, 0.00, 2.00) +- 1.00 m horizontally, +- 0.10 m vertically did not happen' in message, message
     assert 'OFFBOARD' in message and 'armed' in message and 'ENU (' in message, message
+
+
+def test_the_public_api_resolves_and_loads_no_ros_until_used():
+    """Every name offboard_py.testing exports resolves, and importing the package alone loads neither
+    rospy nor pymavlink (the ROS-free tiers and a user's pymavlink tests import it too)."""
+    script = ('import sys, offboard_py.testing as t\n'
+              'loaded = [m for m in ("rospy", "pymavlink") if m in sys.modules]\n'
+              'assert not loaded, "importing offboard_py.testing loaded %s" % loaded\n'
+              'missing = [n for n in t.__all__ if getattr(t, n, None) is None]\n'
+              'assert not missing, "exported but not there: %s" % missing\n')
+    out = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stdout + out.stderr
