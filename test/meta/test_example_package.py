@@ -109,7 +109,8 @@ def test_the_example_fails_when_the_node_flies_elsewhere(workspace):
     assert result is not None and 'SUCCESS' not in result, \
         'the example passed with the node at 1 m (%r); rostest said:\n%s' % (result, output[-3000:])
     message = ' '.join(failures)
-    assert 'position ENU (0.00, 0.00, 2.00) +- 1.00 m horizontally, +- 0.10 m vertically did not happen' in message, message
+    expected = 'position ENU (0.00, 0.00, 2.00) +- 1.00 m horizontally, +- 0.10 m vertically did not happen'
+    assert expected in message, message
     assert 'OFFBOARD' in message and 'armed' in message and 'ENU (' in message, message
 
 
