@@ -53,7 +53,7 @@ HOVER_TIMEOUT_S = 120.0                          # all three hovering, from the 
 HOLD_S = 10.0                                    # then they hold the hover while the rates are measured
 OBSERVER_PERIOD_S = 0.5
 STOP_TIMEOUT_S = 15.0                            # for a process group to stop on SIGINT before it is killed
-NETNS_PATTERN = re.compile(r'^opf-(\d+)-(a|b|c|sw)$')
+NETNS_PATTERN = re.compile(r'^opf-(\d+)-(a|b|c|sw|probe)$')
 STATUS_PREFIX = 'fleet '
 ROS_NODES = ('mavros', 'offb_node_py')           # a vehicle's nodes, in uav<id>
 
