@@ -98,6 +98,11 @@ def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=
     return UdpUrl(bind, remote, broadcast, permanent)
 
 
+def _source(frame):
+    """(system id, component id) of the sender, from the header of a frame from wire.split()."""
+    return (frame[5], frame[6]) if frame[0] == wire.MAGIC_V2 else (frame[3], frame[4])
+
+
 def _on_this_host(address):
     """True for a loopback or unspecified (0.0.0.0: this host) address, or none."""
     if address is None:
@@ -120,10 +125,14 @@ class MavlinkLink:
     """A MAVLink 2 UDP endpoint with handler dispatch and remote learning."""
 
     def __init__(self, bind, remote=None, system_id=1, component_id=1, learn_remote=True, broadcast=False,
-                 name='udp', lock_remote=False, clock=time.monotonic):
+                 name='udp', lock_remote=False, clock=time.monotonic, peer=None):
         """`remote`: where to send until one is learned (None: nowhere). `learn_remote`: follow every
         sender of a valid frame (mavros). `lock_remote`: PX4's rule instead (see `_lock_partner`), on
-        `clock` (seconds)."""
+        `clock` (seconds). `peer`: (system id, component id) of what the remote is (None: anyone; the
+        bridge's FCU link: its target system and component). A frame from another system is then
+        CRC-checked and counted (`other_system`) but not decoded, so junk from other systems is dropped
+        before a full parse, and only a datagram with a valid frame from the peer itself moves the
+        remote: a flood from another port cannot divert the link."""
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         if broadcast:
             self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
@@ -136,6 +145,7 @@ class MavlinkLink:
         self.bind = self.sock.getsockname()
         self.remote = self._resolve(remote) if remote else None
         self.learn_remote = learn_remote and not lock_remote
+        self.peer = None if peer is None else (int(peer[0]), int(peer[1]))
         self.lock_remote = lock_remote
         self.partner_locked = False
         self._clock = clock
@@ -268,13 +278,25 @@ class MavlinkLink:
                 self.stats['other_senders'] += 1  # read, but the replies still go to the partner
         decode_all = self.signing.active
         wanted = self._wanted_ids
-        messages, undecoded, bad = [], 0, 0
+        peer = self.peer
+        messages, undecoded, bad, foreign, from_peer = [], 0, 0, 0, peer is None
         for msg_id, frame in wire.split(data):
             if msg_id is None:
                 bad += 1
+                continue
+            source = _source(frame)
+            if peer is not None and source[0] != peer[0]:
+                # another system's frame: checked (a valid one is still raw data for on_frame), never decoded
+                if wire.crc_ok(msg_id, frame):
+                    foreign += 1
+                    if self.on_frame is not None:
+                        self._call(self.on_frame, frame)
+                else:
+                    bad += 1
             elif not decode_all and msg_id not in wanted:
                 if wire.crc_ok(msg_id, frame):
                     undecoded += 1
+                    from_peer = from_peer or source == peer
                     self._count_sequence(frame)
                     if self.on_frame is not None:
                         self._call(self.on_frame, frame)
@@ -286,15 +308,20 @@ class MavlinkLink:
                 except Exception:  # pymavlink raises assorted errors on hostile bytes
                     bad += 1
                 else:
+                    from_peer = from_peer or source == peer
                     self._count_sequence(frame)
                     if self.on_frame is not None:
                         self._call(self.on_frame, frame)
         if bad:
             self.stats['bad_frames'] += bad
+        if foreign:
+            self.stats['other_system'] += foreign
         if not messages and not undecoded:
+            if foreign and self.on_datagram is not None:
+                self.on_datagram(data)  # passed on raw (to a GCS) as before, but it moves nothing
             return
         self.last_receive_s = time.monotonic()
-        if (sender is not None and self.learn_remote and sender != self.remote
+        if (sender is not None and self.learn_remote and sender != self.remote and from_peer
                 and self.signing.may_move_remote(messages)):
             self._move_remote(sender)  # before dispatch: replies go to whoever asked
         if self.on_datagram is not None:

@@ -1,6 +1,10 @@
-"""The simulated PX4's UDP partner rule (MavlinkLink(lock_remote=True)), as PX4's mavlink_receiver.cpp has it:
-the first datagram's sender is the partner for good, taken before parsing; with a default partner not on this
-host, only a datagram at least 3 s after the start is taken, and what comes before is dropped unread."""
+"""Who a link answers.
+
+The simulated PX4's rule (MavlinkLink(lock_remote=True)), as PX4's mavlink_receiver.cpp has it: the first
+datagram's sender is the partner for good, taken before parsing; with a default partner not on this host,
+only a datagram at least 3 s after the start is taken, and what comes before is dropped unread.
+The bridge's FCU link (peer=(system, component)): only the peer's own frames move the remote, and frames
+from other systems are not decoded."""
 
 from offboard_py import wire
 from offboard_py.dialect import mavlink
@@ -75,5 +79,25 @@ def test_without_the_lock_a_valid_frame_moves_the_remote_as_mavros_does():
         assert link.remote == ('127.0.0.1', 14580), 'junk does not move it'
         link.handle_datagram(heartbeat(), FLOODER)
         assert link.remote == FLOODER
+    finally:
+        link.close()
+
+
+def test_a_link_with_a_peer_follows_only_the_peer_and_does_not_decode_other_systems():
+    """The bridge's FCU link: peer = (target system, target component)."""
+    link = MavlinkLink(('127.0.0.1', 0), ('127.0.0.1', 14580), system_id=1, component_id=240, peer=(1, 1))
+    try:
+        heard, raw = [], []
+        link.on('HEARTBEAT', heard.append)
+        link.on_frame = raw.append
+        link.handle_datagram(heartbeat(42), FLOODER)  # another system: not decoded, not followed
+        assert link.remote == ('127.0.0.1', 14580) and not heard and len(raw) == 1
+        assert link.stats['other_system'] == 1
+        camera = mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_CAMERA, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
+        link.handle_datagram(wire.encode(camera, 0, 1, mavlink.MAV_COMP_ID_CAMERA), FLOODER)
+        assert len(heard) == 1 and link.remote == ('127.0.0.1', 14580), 'read, but another component is not the peer'
+        autopilot = mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, 0, 0, 0, 3)
+        link.handle_datagram(wire.encode(autopilot, 0, 1, 1), BRIDGE)
+        assert link.remote == BRIDGE, 'the peer itself moves it (a restarted FCU on another port)'
     finally:
         link.close()
