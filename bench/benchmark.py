@@ -86,10 +86,12 @@ def rss_mb(pid):
     return None
 
 
-def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0):
+def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0, beside=None):
     """Fly n vehicles to 2 m, hover duration_s, and measure. At another speed than 1 the stack runs in
     simulated time: the hover lasts duration_s simulated seconds and the stream is timed on that clock
-    (the simulator logs arrivals on it, the node stamps on /clock)."""
+    (the simulator logs arrivals on it, the node stamps on /clock). `beside`: what else runs meanwhile
+    (bench/junk_flood.py's flood): beside.start() right after the launch, beside.finish(watches)
+    after the measurement and before the stack stops (it may wait, bounded, for what it watches)."""
     clock = SimClock(speed)
     # arrivals as the simulator logs them: Unix ns in real time, simulated ns otherwise
     now_ns = time.time_ns if clock.real_time else lambda: int(clock.now() * 1e9)
@@ -99,6 +101,8 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0
                               stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
     stamps = [] if latency else None
     watches = [Watch('/uav%d' % i, clock.now(), stamps if i == 0 else None, clock) for i in range(n)]
+    if beside is not None:
+        beside.start()
     try:
         deadline = time.monotonic() + startup_timeout_s
         while not all('hover' in w.phases for w in watches):
@@ -113,7 +117,11 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0
         cpu = {k: (cpu_seconds(p) - cpu0[k]) / (time.monotonic() - window[1]) * 100.0 for k, p in pids.items()}
         rss = {k: rss_mb(p) for k, p in pids.items()}
         window_end = now_ns()
+        if beside is not None:
+            beside.finish(watches)
     finally:
+        if beside is not None:
+            beside.stop()
         for w in watches:
             w.close()
         if launch.poll() is None:
@@ -165,26 +173,40 @@ def main():
     if not scale or min(scale) < 1 or max(scale) > 99 or args.duration <= 1 or args.scale_duration <= 1:
         p.error('--scale values must be 1..99 and durations above 1 s')
     logdir = tempfile.mkdtemp(prefix='offboard_bench_')
-    # One master for every run: the benchmark's own node must stay registered with it.
-    core = None
-    if not rosgraph.is_master_online():
-        core = subprocess.Popen(['roscore'], stdout=open(os.path.join(logdir, 'roscore.log'), 'w'),
-                                stderr=subprocess.STDOUT, start_new_session=True)
-        def master_up_or_roscore_gone():
-            return rosgraph.is_master_online() or core.poll() is not None
-        try:  # we start the master: no "is roscore running?" while it comes up
-            wait_for_master('benchmark', 30.0, is_online=master_up_or_roscore_gone, say=lambda text: None)
-        except MasterTimeout as err:
-            p.error('%s (see %s/roscore.log)' % (err, logdir))
-        if core.poll() is not None:
-            p.error('roscore exited with code %s (see %s/roscore.log)' % (core.returncode, logdir))
+    core = start_master(logdir, p.error)
     rospy.init_node('benchmark', anonymous=True, disable_signals=True)
     try:
         return _measure(args, scale, logdir)
     finally:
-        if core is not None:
-            os.killpg(core.pid, signal.SIGINT)
+        stop_master(core)
+
+
+def start_master(logdir, fail):
+    """A roscore unless a master is up (one master for every run: the measuring node must stay
+    registered with it); None when one was up. fail(message) on a master that does not come up."""
+    if rosgraph.is_master_online():
+        return None
+    core = subprocess.Popen(['roscore'], stdout=open(os.path.join(logdir, 'roscore.log'), 'w'),
+                            stderr=subprocess.STDOUT, start_new_session=True)
+
+    def master_up_or_roscore_gone():
+        return rosgraph.is_master_online() or core.poll() is not None
+    try:  # we start the master: no "is roscore running?" while it comes up
+        wait_for_master('benchmark', 30.0, is_online=master_up_or_roscore_gone, say=lambda text: None)
+    except MasterTimeout as err:
+        fail('%s (see %s/roscore.log)' % (err, logdir))
+    if core.poll() is not None:
+        fail('roscore exited with code %s (see %s/roscore.log)' % (core.returncode, logdir))
+    return core
+
+
+def stop_master(core):
+    if core is not None:
+        os.killpg(core.pid, signal.SIGINT)
+        try:
             core.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(core.pid, signal.SIGKILL)
 
 
 def _measure_speed(args, logdir, single):

@@ -7,9 +7,15 @@ and 2); frames of `refused` (valid, addressed to the receiver, but to be rejecte
 out-of-range enums, NaN fields); and datagrams holding several of these with garbage
 between. Every list holds packed frames (bytes). The number of frames to send comes from
 OFFBOARD_PY_FUZZ_FRAMES (10 000 unless set; `./run fuzz` sets 100 000).
+
+`send_paced` sends a fixed number as fast as the receiver can take them; `flood` sends at a given
+rate (datagrams/s) until told to stop, as a process of its own (`Flood`), for measurements under load.
 """
 
+import itertools
+import multiprocessing
 import os
+import socket
 import struct
 import time
 
@@ -56,3 +62,64 @@ def send_paced(sock, address, datagrams, burst=40, pause_s=0.004):
         if sent % burst == 0:
             time.sleep(pause_s)
     return sent
+
+
+FLOOD_TICK_S = 0.002  # the flood sends what is due every tick: at 8000/s, 16 datagrams at a time
+
+
+def flood(address, pool, rate_hz, stop, sent, errors):
+    """Send the datagrams of `pool` over and over to `address` at rate_hz (datagrams per wall second)
+    until the event `stop` is set; `sent` and `errors` (multiprocessing.Value) count them. A send
+    refused (nobody bound there yet) is counted and the flood goes on."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    datagrams = itertools.cycle(pool)
+    start = time.monotonic()
+    count = failed = 0
+    try:
+        while not stop.is_set():
+            due = int((time.monotonic() - start) * rate_hz)
+            if due - count > rate_hz:  # more than a second behind (this machine cannot send so many):
+                start = time.monotonic() - count / rate_hz  # send as fast as it can, without a backlog
+                due = count + 1
+            while count < due:
+                try:
+                    sock.sendto(next(datagrams), address)
+                except OSError:
+                    failed += 1
+                count += 1
+            sent.value, errors.value = count - failed, failed
+            time.sleep(FLOOD_TICK_S)
+    finally:
+        sock.close()
+
+
+class Flood:
+    """`flood` in a process of its own (the sender's Python must not share a GIL with the measurement).
+    start() returns at once; stop() ends it (bounded) and returns (datagrams sent, send errors, seconds)."""
+
+    STOP_TIMEOUT_S = 5.0
+
+    def __init__(self, address, pool, rate_hz):
+        if rate_hz <= 0:
+            raise ValueError('flood rate must be above 0 datagrams/s, got %r' % (rate_hz,))
+        if not pool:
+            raise ValueError('flood: no datagrams to send')
+        ctx = multiprocessing.get_context('spawn')  # no fork of a process that runs rospy threads
+        self._stop = ctx.Event()
+        self._sent, self._errors = ctx.Value('q', 0), ctx.Value('q', 0)
+        self._proc = ctx.Process(target=flood, name='junk-flood', daemon=True,
+                                 args=(address, list(pool), rate_hz, self._stop, self._sent, self._errors))
+        self._started_s = None
+
+    def start(self):
+        self._proc.start()
+        self._started_s = time.monotonic()
+
+    def stop(self):
+        self._stop.set()
+        self._proc.join(self.STOP_TIMEOUT_S)
+        if self._proc.is_alive():
+            self._proc.kill()
+            self._proc.join(self.STOP_TIMEOUT_S)
+        took = time.monotonic() - self._started_s if self._started_s is not None else 0.0
+        return self._sent.value, self._errors.value, took
