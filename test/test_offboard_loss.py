@@ -50,7 +50,9 @@ class OffboardLossTest(OffboardTestCase):
             descent = [vz for t, vz in vehicle.velocities if t >= start]
         self.assertGreaterEqual(min(descent), -(LAND_SPEED + 0.3),
                                 'came down at %.2f m/s (land speed %.1f)' % (-min(descent), LAND_SPEED))
-        self.assertLess(vehicle.z(), 0.05, 'landed: %s' % vehicle.describe())
+        # on the ground PX4's estimate is not 0: 0.17 m before takeoff, up to 0.78 m after an RTL landing
+        # (px4-sitl-measured.md and its trace); landed is what the land detector says
+        self.assertLess(vehicle.z(), 0.8, 'landed: %s' % vehicle.describe())
         self.assertEqual(vehicle.extended_state.landed_state, ExtendedState.LANDED_STATE_ON_GROUND, 'ON_GROUND')
 
 
