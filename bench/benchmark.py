@@ -181,6 +181,19 @@ def main():
         stop_master(core)
 
 
+def machine():
+    """What the figures were measured on."""
+    return {'cores': os.cpu_count(), 'cpu': platform.processor() or platform.machine(),
+            'python': platform.python_version(), 'kernel': platform.release()}
+
+
+def write_json(result, path):
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, 'w') as out:
+        json.dump(result, out, indent=2)
+    print('JSON: %s' % os.path.abspath(path))
+
+
 def start_master(logdir, fail):
     """A roscore unless a master is up (one master for every run: the measuring node must stay
     registered with it); None when one was up. fail(message) on a master that does not come up."""
@@ -238,8 +251,7 @@ def _measure_speed(args, logdir, single):
 
 
 def _measure(args, scale, logdir):
-    result = {'machine': {'cores': os.cpu_count(), 'cpu': platform.processor() or platform.machine(),
-                          'python': platform.python_version(), 'kernel': platform.release()},
+    result = {'machine': machine(),
               'command': ' '.join(sys.argv)}
     print('one vehicle, %.0f s of hover ...' % args.duration, flush=True)
     single = run(1, args.duration, logdir, latency=True)[0]
@@ -305,10 +317,7 @@ def _measure(args, scale, logdir):
                  % (largest, SCALE_TARGET, 'met' if (largest or 0) >= SCALE_TARGET else '**NOT MET**'))
     print('\n'.join(table), flush=True)
     result['tables'] = {'single': lines, 'scaling': table}
-    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    with open(args.out, 'w') as out:
-        json.dump(result, out, indent=2)
-    print('JSON: %s' % os.path.abspath(args.out))
+    write_json(result, args.out)
     return 0
 
 

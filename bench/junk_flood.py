@@ -15,9 +15,7 @@ of the connection. Run it through `./run bench --junk` (or with the workspace so
 
 import argparse
 import datetime
-import json
 import os
-import platform
 import random
 import sys
 import tempfile
@@ -202,14 +200,10 @@ def main():
           'complete within %.0f s of the connection' % (BAR_P99_MS, args.pull_timeout))
     print('largest junk rate holding it (every rate up to it held): %s datagrams/s' % held)
     result = {'command': ' '.join(sys.argv), 'date': datetime.date.today().isoformat(),
-              'machine': {'cores': os.cpu_count(), 'cpu': platform.processor() or platform.machine(),
-                          'python': platform.python_version(), 'kernel': platform.release()},
+              'machine': benchmark.machine(),
               'bar_p99_ms': BAR_P99_MS, 'pull_timeout_s': args.pull_timeout, 'steps': steps,
               'largest_rate_holding': held, 'table': header + [row(s) for s in steps]}
-    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    with open(args.out, 'w') as out:
-        json.dump(result, out, indent=2)
-    print('JSON: %s' % os.path.abspath(args.out))
+    benchmark.write_json(result, args.out)
     return 0
 
 
