@@ -26,6 +26,7 @@ from rosgraph_msgs.msg import Log
 from offboard_py import frames
 
 CLOCK_START_TIMEOUT_S = 30.0  # wall seconds for the first /clock in simulated time
+START_WALL_S = 15.0  # wall seconds a connection wait allows at least: nodes start in wall time
 MAX_CLOCK_LAG_S = 0.5  # simulated seconds the ROS side may trail the vehicles (COM_OF_LOSS_T is 1 s)
 
 
@@ -177,9 +178,11 @@ class OffboardTestCase(unittest.TestCase):
                 return
             rospy.sleep(min(left, 0.1))
 
-    def wait_until(self, predicate, timeout_s, what, vehicles=()):
-        deadline = now() + timeout_s
-        while now() < deadline and not rospy.is_shutdown():
+    def wait_until(self, predicate, timeout_s, what, vehicles=(), min_wall_s=0.0):
+        """Until predicate() holds: at most timeout_s of ROS time, but never less than min_wall_s of
+        wall time (for what processes do in wall time, such as starting up)."""
+        deadline, wall_deadline = now() + timeout_s, time.monotonic() + min_wall_s
+        while (now() < deadline or time.monotonic() < wall_deadline) and not rospy.is_shutdown():
             if predicate():
                 return True
             self.guard()
@@ -189,7 +192,9 @@ class OffboardTestCase(unittest.TestCase):
         self.fail('%s did not happen within %.0f s. Seen: %s' % (what, timeout_s, seen))
 
     def wait_for_connected(self, vehicle, timeout_s):
-        self.wait_until(lambda: vehicle.state.connected, timeout_s, 'FCU connection', [vehicle])
+        # processes start in wall time whatever the speed: at 100x, 30 simulated seconds are 0.3 wall seconds
+        self.wait_until(lambda: vehicle.state.connected, timeout_s, 'FCU connection', [vehicle],
+                        min_wall_s=START_WALL_S)
 
     def wait_for_mode(self, vehicle, mode, timeout_s):
         self.wait_until(lambda: vehicle.state.mode == mode, timeout_s, 'mode %s' % mode, [vehicle])
