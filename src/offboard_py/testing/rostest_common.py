@@ -84,7 +84,6 @@ class Vehicle:
         self.pose = None
         self.velocity = None
         self.states = []      # (time, State) history
-        self.poses = []       # (time, z ENU)
         self.positions = []   # (time, (x, y, z) ENU)
         self.velocities = []  # (time, vz ENU)
         self.setpoints = []   # times of the setpoints the node under test sent on setpoint_position/local
@@ -113,9 +112,7 @@ class Vehicle:
         with self.lock:
             self.pose = msg
             p = msg.pose.position
-            t = now()
-            self.poses.append((t, p.z))
-            self.positions.append((t, (p.x, p.y, p.z)))
+            self.positions.append((now(), (p.x, p.y, p.z)))
 
     def _on_velocity(self, msg):
         with self.lock:
@@ -141,6 +138,11 @@ class Vehicle:
 
     def z(self):
         return self.pose.pose.position.z if self.pose is not None else float('nan')
+
+    @property
+    def poses(self):
+        """(time, z ENU) history: the heights of `positions` (a copy; safe with or without `lock` held)."""
+        return [(t, p[2]) for t, p in list(self.positions)]
 
     def offset_from(self, position_enu):
         """(horizontal, vertical) metres from the last pose to position_enu (x, y, z); inf before the first pose."""
@@ -221,7 +223,7 @@ class OffboardTestCase(unittest.TestCase):
         start = now()
         self.pause(duration_s)
         with vehicle.lock:
-            samples = [z for t, z in vehicle.poses if t >= start]
+            samples = [p[2] for t, p in vehicle.positions if t >= start]
         self.assertGreater(len(samples), duration_s * 10, 'too few poses (%d) in %.0f s' % (len(samples), duration_s))
         worst = max(samples, key=lambda z: abs(z - z_m))
         self.assertLessEqual(abs(worst - z_m), tolerance_m,
