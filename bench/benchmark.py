@@ -34,12 +34,18 @@ CLK_TCK = os.sysconf('SC_CLK_TCK')
 
 
 class Watch:
-    """The phases of one vehicle (offboard_py.phases), and optionally its setpoint header stamps."""
+    """The phases of one vehicle (offboard_py.phases), and optionally its setpoint header stamps.
+
+    The pose is watched only until the vehicle hovers (`stop_watching_pose()`): a subscriber makes the
+    bridge build, serialise and send local_position/pose at 30 Hz, and with 32 vehicles this process
+    would take in about 1000 poses a second beside the stack it measures. In the measured hover the
+    bridge's topics have the tutorial's subscribers only (the node's mavros/state), plus this state
+    subscription and, for vehicle 0, the setpoint stamps of the latency figure."""
 
     def __init__(self, ns, t0, stamps=None, clock=time.monotonic):
         self.watcher = PhaseWatcher(t0, clock=clock)
-        self.subs = [rospy.Subscriber(ns + '/mavros/state', State, self.watcher.on_state),
-                     rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self.watcher.on_pose)]
+        self.subs = [rospy.Subscriber(ns + '/mavros/state', State, self.watcher.on_state)]
+        self.pose_sub = rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self.watcher.on_pose)
         if stamps is not None:
             self.subs.append(rospy.Subscriber(ns + '/mavros/setpoint_position/local', PoseStamped,
                                               lambda m: stamps.append(m.header.stamp.to_nsec()), tcp_nodelay=True))
@@ -49,7 +55,13 @@ class Watch:
         """Seconds from the launch to connected, offboard, armed and hover (those reached)."""
         return self.watcher.first
 
+    def stop_watching_pose(self):
+        if self.pose_sub is not None:
+            self.pose_sub.unregister()
+            self.pose_sub = None
+
     def close(self):
+        self.stop_watching_pose()
         for sub in self.subs:
             sub.unregister()
 
@@ -86,13 +98,49 @@ def rss_mb(pid):
     return None
 
 
-def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0, beside=None):
+def startup_bound_s(n):
+    """How long n vehicles may take from the launch to hover: about 25 s for one, and on 2 cores
+    the start-up of 3 Python processes a vehicle (imports, registration) grows with n."""
+    return 180.0 + 4.0 * n
+
+
+def forget_stale_nodes(prefixes=('/uav', '/sim_clock')):
+    """Unregister from the master what nodes of a stopped launch left registered (a node killed
+    before it could unregister). The master keeps such a registration with its old XML-RPC
+    URI; when the next launch registers a node of the same name, the master tells that URI to
+    shut down, and if another node of the new launch has been given the same port, that node
+    is shut down instead ("new node registered with same name"; seen once at 24 vehicles).
+    Returns the names unregistered."""
+    master = rosgraph.Master('/benchmark_cleanup')
+    pubs, subs, srvs = master.getSystemState()
+    stale = sorted({node for group in (pubs, subs, srvs) for _, nodes in group for node in nodes
+                    if node.startswith(prefixes)})
+    for node in stale:
+        as_node = rosgraph.Master(node)
+        try:
+            api = master.lookupNode(node)
+            for topic, nodes in pubs:
+                if node in nodes:
+                    as_node.unregisterPublisher(topic, api)
+            for topic, nodes in subs:
+                if node in nodes:
+                    as_node.unregisterSubscriber(topic, api)
+            for service, nodes in srvs:
+                if node in nodes:
+                    as_node.unregisterService(service, master.lookupService(service))
+        except rosgraph.MasterException:
+            continue  # gone meanwhile
+    return stale
+
+
+def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None):
     """Fly n vehicles to 2 m, hover duration_s, and measure. At another speed than 1 the stack runs in
     simulated time: the hover lasts duration_s simulated seconds and the stream is timed on that clock
     (the simulator logs arrivals on it, the node stamps on /clock). `beside`: what else runs meanwhile
     (bench/junk_flood.py's flood): beside.start() right after the launch, beside.finish(watches)
     after the measurement and before the stack stops (it may wait, bounded, for what it watches)."""
     clock = SimClock(speed)
+    startup_timeout_s = startup_timeout_s or startup_bound_s(n)
     # arrivals as the simulator logs them: Unix ns in real time, simulated ns otherwise
     now_ns = time.time_ns if clock.real_time else lambda: int(clock.now() * 1e9)
     launch_log = open(os.path.join(logdir, 'launch-%d-%g.log' % (n, speed)), 'w')
@@ -106,6 +154,9 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0
     try:
         deadline = time.monotonic() + startup_timeout_s
         while not all('hover' in w.phases for w in watches):
+            for w in watches:
+                if 'hover' in w.phases:
+                    w.stop_watching_pose()
             if time.monotonic() > deadline:
                 missing = [i for i, w in enumerate(watches) if 'hover' not in w.phases]
                 raise RuntimeError('vehicles %s not hovering after %.0f s' % (missing, startup_timeout_s))
@@ -131,6 +182,10 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=180.0, speed=1.0
             except subprocess.TimeoutExpired:
                 os.killpg(launch.pid, signal.SIGKILL)
         launch_log.close()
+        stale = forget_stale_nodes()
+        if stale:
+            print('  (%d nodes of the stopped launch were still registered with the master: unregistered)'
+                  % len(stale), flush=True)
     vehicles = []
     for i in range(n):
         rows = [tuple(map(int, line.split())) for line in open(os.path.join(logdir, 'setpoints-%d.txt' % i))]
