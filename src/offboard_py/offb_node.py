@@ -4,8 +4,11 @@ The decisions live in `offboard.OffboardLogic`; this module only connects them t
 ROS: the mavros/state subscription, the setpoint publisher, the two service proxies.
 Setpoints are published from their own rospy.Timer thread, so a service call that
 blocks the main loop (mavros may take up to 5 s to answer cmd/arming) never stalls
-the stream, as the tutorial's tip asks. All names are relative, so a namespace
-(`<group ns="uav1">` or ROS_NAMESPACE) moves the node together with its vehicle.
+the stream, as the tutorial's tip asks. The timer asks the logic after each setpoint,
+as the tutorial's loop does, and wakes the main thread only when a request is due: a
+main loop polling at 20 Hz beside the timer cost a fifth of the node's CPU in hover for
+nothing. All names are relative, so a namespace (`<group ns="uav1">` or ROS_NAMESPACE)
+moves the node together with its vehicle.
 """
 
 import sys
@@ -22,6 +25,7 @@ from offboard_py.offboard import OFFBOARD, OffboardLogic, ParamError, Request, V
 
 NODE_NAME = 'offb_node_py'
 WAIT_LOG_PERIOD_S = 5.0
+SHUTDOWN_CHECK_S = 1.0  # wall seconds between the main thread's looks at rospy.is_shutdown()
 
 
 def make_setpoint(config):
@@ -39,11 +43,15 @@ class OffbNode:
         self.config = config
         self.logic = OffboardLogic(config.prestream_count, config.request_interval_s, config.respect_pilot)
         self.lock = threading.Lock()  # the logic is shared by the state, timer and main threads
+        self.request_due = threading.Event()  # set by the timer when the logic has a request to make
+        self.start_s = None
+        self.last_wait_log_s = None
         self.setpoint = make_setpoint(config)
         self.setpoint_pub = rospy.Publisher('mavros/setpoint_position/local', PoseStamped, queue_size=10)
         self.set_mode = rospy.ServiceProxy('mavros/set_mode', SetMode)
         self.arming = rospy.ServiceProxy('mavros/cmd/arming', CommandBool)
         self.state_sub = rospy.Subscriber('mavros/state', State, self._on_state, queue_size=10)
+        rospy.on_shutdown(self.request_due.set)
         self.stream_timer = rospy.Timer(rospy.Duration(1.0 / config.rate_hz), self._stream)
 
     def _on_state(self, msg):
@@ -53,9 +61,13 @@ class OffbNode:
             rospy.loginfo(line)
 
     def _stream(self, _event):
+        """One tick of the tutorial's loop: publish the setpoint, then see whether a request is due."""
+        now_s = rospy.get_time()
         with self.lock:
-            if not self.logic.should_stream():
-                return
+            streaming = self.logic.should_stream()
+        if not streaming:
+            self._log_waiting(now_s)
+            return
         self.setpoint.header.stamp = rospy.Time.now()
         try:
             self.setpoint_pub.publish(self.setpoint)
@@ -63,8 +75,20 @@ class OffbNode:
             if rospy.is_shutdown():
                 return  # the timer fired while rospy closed the topic at shutdown
             raise
+        now_s = rospy.get_time()
         with self.lock:
-            self.logic.on_setpoint_sent(rospy.get_time())
+            self.logic.on_setpoint_sent(now_s)
+            due = self.logic.next_request(now_s) is not None
+        if due:
+            self.request_due.set()
+
+    def _log_waiting(self, now_s):
+        if self.start_s is None:
+            self.start_s = now_s
+        if self.last_wait_log_s is None or now_s - self.last_wait_log_s >= WAIT_LOG_PERIOD_S:
+            rospy.loginfo('Waiting for the FCU connection on %s (%.0f s so far)',
+                          self.state_sub.resolved_name, now_s - self.start_s)
+            self.last_wait_log_s = now_s
 
     def _request(self, request):
         try:
@@ -83,21 +107,15 @@ class OffbNode:
                 self.logic.on_request_done(rospy.get_time())
 
     def spin(self):
-        rate = rospy.Rate(self.config.rate_hz)
-        start_s = rospy.get_time()
-        last_wait_log_s = None
+        """Make the requests the timer finds due, one at a time, until shutdown."""
         while not rospy.is_shutdown():
-            now_s = rospy.get_time()
+            if not self.request_due.wait(SHUTDOWN_CHECK_S):
+                continue
+            self.request_due.clear()
             with self.lock:
-                request = self.logic.next_request(now_s)
-                connected_once = self.logic.should_stream()
-            if request is not None:
+                request = self.logic.next_request(rospy.get_time())
+            if request is not None and not rospy.is_shutdown():
                 self._request(request)
-            elif not connected_once and (last_wait_log_s is None or now_s - last_wait_log_s >= WAIT_LOG_PERIOD_S):
-                rospy.loginfo('Waiting for the FCU connection on %s (%.0f s so far)',
-                              self.state_sub.resolved_name, now_s - start_s)
-                last_wait_log_s = now_s
-            rate.sleep()
 
 
 def main():
