@@ -25,6 +25,7 @@ from offboard_py.bridge.attitude import Attitude
 
 
 WAIT_SLICE_S = 0.02  # wall seconds between looks at a deadline on the bridge's clock
+MAX_WAIT_S = 0.2     # the receive loop's longest sleep in real time (how soon it sees stop())
 RETRY_DELAYS_S = (1.0, 2.0, 4.0, 8.0, 16.0, 30.0)  # between tries of a connection-time pull; then every 30 s
 
 class Bridge:
@@ -209,15 +210,31 @@ class Bridge:
         self._thread = threading.Thread(target=self._loop, name='mavlink-receive', daemon=True)
         self._thread.start()
 
+    def _next_due_s(self):
+        """When the next periodic or one-shot task is due (bridge clock); None without any."""
+        due = [task[1] for task in self._periodic] + [task[0] for task in self._one_shots]
+        return min(due) if due else None
+
     def _loop(self):
-        links = [self.link] + ([self.gcs] if self.gcs else [])
+        """Wake when a datagram comes or a task is due, not on a fixed tick: each wake-up of the
+        process costs about as much as handling a datagram. Under simulated time the bridge's
+        clock is ROS time, whose seconds are not the wall's, so a wait is at most a short wall
+        slice there."""
+        poller = select.poll()
+        links = {}
+        for link in [self.link] + ([self.gcs] if self.gcs else []):
+            links[link.fileno()] = link
+            poller.register(link.fileno(), select.POLLIN)
+        longest_wait_s = MAX_WAIT_S if self._clock is time.monotonic else WAIT_SLICE_S
         while self._running and not self.is_shutdown():
+            due_s = self._next_due_s()
+            wait_s = longest_wait_s if due_s is None else min(longest_wait_s, max(0.0, due_s - self._clock()))
             try:
-                readable, _, _ = select.select(links, [], [], 0.02)
+                events = poller.poll(wait_s * 1000.0)
             except (OSError, ValueError):
                 break  # sockets closed at shutdown
-            for link in readable:
-                link.receive()
+            for fd, _ in events:
+                links[fd].receive()
             now_s = self._clock()
             self.run_periodic(now_s)
             if self._one_shots:
