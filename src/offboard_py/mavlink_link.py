@@ -6,8 +6,9 @@
   frame becomes the remote: a client bound on 14540 answers PX4 wherever PX4 sends from), or
   as PX4's does (`lock_remote`: the first datagram's sender becomes the remote for good). It
   parses every datagram and hands each message to the handlers registered for its type: a
-  plugin is a set of handlers, not a branch in one long if/elif chain. Malformed bytes are
-  counted and dropped, never raised.
+  plugin is a set of handlers, not a branch in one long if/elif chain. A type is decoded only
+  while one of its handlers needs it (`on(..., needed=)`); the rest are CRC-checked and
+  counted. Malformed bytes are counted and dropped, never raised.
 - `enable_signing()` turns on MAVLink 2 signing (offboard_py.signing does the work).
 
 It knows nothing of ROS or of the simulator; the caller owns the receive loop
@@ -98,11 +99,6 @@ def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=
     return UdpUrl(bind, remote, broadcast, permanent)
 
 
-def _source(frame):
-    """(system id, component id) of the sender, from the header of a frame from wire.split()."""
-    return (frame[5], frame[6]) if frame[0] == wire.MAGIC_V2 else (frame[3], frame[4])
-
-
 def _on_this_host(address):
     """True for a loopback or unspecified (0.0.0.0: this host) address, or none."""
     if address is None:
@@ -160,10 +156,13 @@ class MavlinkLink:
         self._send_lock = threading.Lock()  # pymavlink's sequence counter is not thread-safe
         self.mav.robust_parsing = True
         self.handlers = {}
-        self._wanted_ids = set()  # the message ids some handler reads: only these are decoded
+        self._wanted_ids = set()  # the message ids some handler reads: only these are decoded ...
+        self._always_ids = set()  # ... these always ...
+        self._needed = {}         # ... and these (id -> [needed()]) while one of their handlers needs them
         self._last_seq = {}       # (system, component) -> the last sequence number received
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
-        self.on_frame = None     # optional raw hook: on_frame(bytes) for each valid frame, read or not
+        self.on_frame = None     # optional raw hook: on_frame(bytes) for each valid frame, read or not, ...
+        self.on_frame_needed = lambda: True  # ... while this says so (asked once a datagram)
         self.stats = collections.Counter()
         self.last_receive_s = None
         self.signing = LinkSigning(self.mav, self._send_lock, self.stats)
@@ -183,10 +182,28 @@ class MavlinkLink:
     def fileno(self):
         return self.sock.fileno()
 
-    def on(self, msg_type, handler):
-        """Call handler(msg) for every message of type `msg_type` (e.g. 'HEARTBEAT')."""
+    def on(self, msg_type, handler, needed=None):
+        """Call handler(msg) for every message of type `msg_type` (e.g. 'HEARTBEAT'). `needed`:
+        None (always), or a function that says whether the handler has anything to do now (a
+        bridge plugin: whether its topics have subscribers). While no handler of a type needs it,
+        its frames are not decoded, only CRC-checked and counted: decoding is most of what a
+        frame costs, and nothing else reads it."""
+        msg_id = wire.msg_id(msg_type)
         self.handlers.setdefault(msg_type, []).append(handler)
-        self._wanted_ids.add(wire.msg_id(msg_type))
+        self._wanted_ids.add(msg_id)
+        if needed is None:
+            self._always_ids.add(msg_id)
+        else:
+            self._needed.setdefault(msg_id, []).append(needed)
+
+    def _needed_now(self, msg_id):
+        """Whether a frame of this wanted type is to be decoded now."""
+        if msg_id in self._always_ids:
+            return True
+        for needed in self._needed[msg_id]:
+            if needed():
+                return True
+        return False
 
     # -- signing ----------------------------------------------------------------------------
 
@@ -279,39 +296,46 @@ class MavlinkLink:
         decode_all = self.signing.active
         wanted = self._wanted_ids
         peer = self.peer
-        messages, undecoded, bad, foreign, from_peer = [], 0, 0, 0, peer is None
+        frame_hook = self.on_frame if self.on_frame is not None and self.on_frame_needed() else None
+        last_seq = self._last_seq
+        messages, undecoded, bad, foreign, dropped, from_peer = [], 0, 0, 0, 0, peer is None
         for msg_id, frame in wire.split(data):
             if msg_id is None:
                 bad += 1
                 continue
-            source = _source(frame)
+            v2 = frame[0] == wire.MAGIC_V2
+            source = (frame[5], frame[6]) if v2 else (frame[3], frame[4])
             if peer is not None and source[0] != peer[0]:
                 # another system's frame: checked (a valid one is still raw data for on_frame), never decoded
                 if wire.crc_ok(msg_id, frame):
                     foreign += 1
-                    if self.on_frame is not None:
-                        self._call(self.on_frame, frame)
+                    if frame_hook is not None:
+                        self._call(frame_hook, frame)
                 else:
                     bad += 1
-            elif not decode_all and msg_id not in wanted:
-                if wire.crc_ok(msg_id, frame):
-                    undecoded += 1
-                    from_peer = from_peer or source == peer
-                    self._count_sequence(frame)
-                    if self.on_frame is not None:
-                        self._call(self.on_frame, frame)
-                else:
+                continue
+            if not decode_all and (msg_id not in wanted or not self._needed_now(msg_id)):
+                if not wire.crc_ok(msg_id, frame):
                     bad += 1
+                    continue
+                undecoded += 1
             else:
                 try:
                     messages.append(self.mav.decode(bytearray(frame)))
                 except Exception:  # pymavlink raises assorted errors on hostile bytes
                     bad += 1
-                else:
-                    from_peer = from_peer or source == peer
-                    self._count_sequence(frame)
-                    if self.on_frame is not None:
-                        self._call(self.on_frame, frame)
+                    continue
+            from_peer = from_peer or source == peer
+            # frames a sender's sequence numbers say were lost, per sender
+            seq = frame[4] if v2 else frame[2]
+            last = last_seq.get(source)
+            if last is not None:
+                dropped += (seq - last - 1) & 0xFF
+            last_seq[source] = seq
+            if frame_hook is not None:
+                self._call(frame_hook, frame)
+        if dropped:
+            self.stats['dropped'] += dropped
         if bad:
             self.stats['bad_frames'] += bad
         if foreign:
@@ -344,17 +368,6 @@ class MavlinkLink:
         self.partner_locked = True
         log.info('%s: partner address %s:%d (kept for good, as PX4 does)', self.name, sender[0], sender[1])
         return True
-
-    def _count_sequence(self, frame):
-        """Count the frames a sender's sequence numbers say were lost (`dropped`), per sender."""
-        if frame[0] == wire.MAGIC_V2:
-            seq, sender = frame[4], (frame[5], frame[6])
-        else:
-            seq, sender = frame[2], (frame[3], frame[4])
-        last = self._last_seq.get(sender)
-        if last is not None:
-            self.stats['dropped'] += (seq - last - 1) & 0xFF
-        self._last_seq[sender] = seq
 
     def _move_remote(self, sender):
         """Answer `sender` from now on, and say so as mavconn does ("udp0: Remote address: ...");

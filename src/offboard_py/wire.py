@@ -35,6 +35,8 @@ _crc_struct = struct.Struct('<H')
 # MAVLink C library (mavros, PX4) does.
 CRC_EXTRA = {msg_id: cls.crc_extra for msg_id, cls in mavlink.mavlink_map.items()}
 MSG_IDS = {cls.msgname: msg_id for msg_id, cls in mavlink.mavlink_map.items()}
+# CRC_EXTRA as the byte the CRC runs over last, by message id
+_CRC_EXTRA_BYTE = {msg_id: bytes((extra,)) for msg_id, extra in CRC_EXTRA.items()}
 
 
 def crc16(data, crc=0xFFFF):
@@ -100,10 +102,8 @@ def split(data):
 
 def crc_ok(msg_id, frame):
     """True when a frame from split() carries the right CRC for its message id."""
-    header = HEADER_V2 if frame[0] == MAGIC_V2 else HEADER_V1
-    end = header + frame[1]
-    crc = crc16(frame[1:end])
-    crc = crc16(bytes((CRC_EXTRA.get(msg_id, 0),)), crc)
+    end = (HEADER_V2 if frame[0] == MAGIC_V2 else HEADER_V1) + frame[1]
+    crc = crc16(bytes(frame[1:end]) + _CRC_EXTRA_BYTE.get(msg_id, b'\x00'))
     return crc == _crc_struct.unpack_from(frame, end)[0]
 
 
@@ -124,10 +124,6 @@ def payload(msg):
         return msg.pack(None)
     finally:
         del msg._pack
-
-
-# CRC_EXTRA as the byte the CRC runs over last, by message id
-_CRC_EXTRA_BYTE = {msg_id: bytes((extra,)) for msg_id, extra in CRC_EXTRA.items()}
 
 
 def encode(msg, seq, system_id, component_id):

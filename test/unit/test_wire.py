@@ -128,6 +128,23 @@ def test_link_decodes_only_what_it_reads(link, monkeypatch):
     assert link.remote == ('127.0.0.1', 14580)
 
 
+def test_link_decodes_a_type_only_while_a_handler_needs_it(link, monkeypatch):
+    decoded, needed, got = [], [False], []
+    real_decode = link.mav.decode
+    monkeypatch.setattr(link.mav, 'decode', lambda buf: decoded.append(buf[7]) or real_decode(buf))
+    link.on('ATTITUDE', got.append, needed=lambda: needed[0])
+    link.handle_datagram(frame(ATT) + frame(HB, seq=1), ('127.0.0.1', 14580))
+    assert decoded == [mavlink.MAVLINK_MSG_ID_HEARTBEAT] and got == [], 'not needed: checked and counted only'
+    assert link.stats['received'] == 2
+    needed[0] = True
+    link.handle_datagram(frame(ATT, seq=2), ('127.0.0.1', 14580))
+    assert [m.get_type() for m in got] == ['ATTITUDE'] and link.stats['received'] == 3
+    link.on('ATTITUDE', lambda msg: None)  # a handler that always reads it
+    needed[0] = False
+    link.handle_datagram(frame(ATT, seq=3), ('127.0.0.1', 14580))
+    assert len(got) == 2, 'one handler that always reads a type decodes it for all of them'
+
+
 def test_link_counts_bad_frames_and_junk_moves_nothing(link):
     bad = bytearray(frame(ATT))
     bad[-1] ^= 0xFF

@@ -8,11 +8,9 @@ class Altitude:
         self.bridge = bridge
         self.frame_id = bridge.cfg['local_position/frame_id']
         self.pub = bridge.publisher('~altitude', AltitudeMsg)
-        bridge.on('ALTITUDE', self._on_altitude)
+        bridge.on('ALTITUDE', self._on_altitude, needed=bridge.listened(self.pub))
 
     def _on_altitude(self, alt):
-        if not self.pub.get_num_connections():
-            return
         msg = AltitudeMsg()
         msg.header.stamp, msg.header.frame_id = self.bridge.fcu_stamp_us(alt.time_usec), self.frame_id
         msg.monotonic, msg.amsl, msg.local = alt.altitude_monotonic, alt.altitude_amsl, alt.altitude_local

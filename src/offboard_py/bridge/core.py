@@ -1,8 +1,9 @@
 """What every bridge plugin is given: the FCU link, the ROS side, clocks, the connection.
 
 A plugin is a class built with the Bridge and using only this interface:
-- MAVLink: `on(msg_type, handler, accept=filters.SYSTEM)`, `send(msg)`, `mav` (the codec that
-  builds messages), `target_system`, `target_component`, `attitude` (the shared cache);
+- MAVLink: `on(msg_type, handler, accept=filters.SYSTEM, needed=None)`, `send(msg)`, `mav` (the
+  codec that builds messages), `target_system`, `target_component`, `attitude` (the shared cache,
+  kept while a `reads_attitude(needed)` says so); `listened(*publishers)` makes a `needed`;
 - ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
   to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
@@ -49,22 +50,47 @@ class Bridge:
         self.connected = False
         self._connection_listeners = []
         self.attitude = Attitude()
+        self._attitude_readers = []  # needed() of each plugin that reads the attitude cache
         self.clock_offset = None  # the sys_time plugin, when loaded: stamp_ns(fcu_ns)
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         # registered before any plugin's handler, so readers see this message's attitude
-        self.on('ATTITUDE_QUATERNION', self.attitude.update)
+        self.on('ATTITUDE_QUATERNION', self.attitude.update, needed=self._attitude_needed)
         self.plugins = [plugin(self) for plugin in plugins]
         self._running = False
         self._thread = None
 
     # -- MAVLink ------------------------------------------------------------------------------
 
-    def on(self, msg_type, handler, accept=filters.SYSTEM):
-        """Call handler(msg) for each `msg_type` message that `accept` (a filters.* function) lets through."""
+    def on(self, msg_type, handler, accept=filters.SYSTEM, needed=None):
+        """Call handler(msg) for each `msg_type` message that `accept` (a filters.* function) lets through.
+        `needed`: None (always), or a function saying whether the handler has anything to do now
+        (e.g. `listened(publishers)`); the link decodes a type only while one of its handlers needs it.
+        What a topic nobody subscribes to would have carried cannot be told apart from nothing."""
         def filtered(msg):
             if accept(msg, self.target_system, self.target_component):
                 handler(msg)
-        self.link.on(msg_type, filtered)
+        self.link.on(msg_type, filtered, needed)
+
+    @staticmethod
+    def listened(*publishers):
+        """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
+        def needed():
+            for publisher in publishers:
+                if publisher.get_num_connections():
+                    return True
+            return False
+        return needed
+
+    def reads_attitude(self, needed):
+        """A plugin that reads `attitude` when it publishes says when it does; the cache follows
+        ATTITUDE_QUATERNION while any reader needs it."""
+        self._attitude_readers.append(needed)
+
+    def _attitude_needed(self):
+        for needed in self._attitude_readers:
+            if needed():
+                return True
+        return False
 
     def send(self, msg):
         """Send to the FCU; False while its address is unknown."""

@@ -57,8 +57,12 @@ class GlobalPosition:
         self.raw_fix_pub = bridge.publisher('~global_position/raw/fix', NavSatFix)
         self.raw_vel_pub = bridge.publisher('~global_position/raw/gps_vel', TwistStamped)
         self.raw_sat_pub = bridge.publisher('~global_position/raw/satellites', UInt32)
-        bridge.on('GLOBAL_POSITION_INT', self._on_global_position)
-        bridge.on('GPS_RAW_INT', self._on_gps_raw)
+        listened = bridge.listened(self.pub, self.local_pub, self.rel_alt_pub, self.hdg_pub)
+        # until the map origin is known every GLOBAL_POSITION_INT is read; then only for a subscriber
+        bridge.on('GLOBAL_POSITION_INT', self._on_global_position,
+                  needed=lambda: self.origin is None or listened())
+        bridge.on('GPS_RAW_INT', self._on_gps_raw)  # the fix status the other topics and diagnostics give
+        bridge.reads_attitude(bridge.listened(self.local_pub))
         bridge.diagnostic('GPS', self._gps_status)
 
     def _gps_status(self):

@@ -1,7 +1,9 @@
 """mavros imu: the IMU in ROS frames (FLU body), frame base_link.
 
 - ~imu/data (sensor_msgs/Imu): orientation and angular velocity from the bridge's attitude
-  cache, linear acceleration from the latest HIGHRES_IMU; on every ATTITUDE_QUATERNION;
+  cache, linear acceleration from the latest HIGHRES_IMU (zeros when that one is more than
+  0.1 s of FCU time from the attitude, as before the first: it is read only while someone
+  listens); on every ATTITUDE_QUATERNION;
 - from each HIGHRES_IMU: ~imu/data_raw (Imu without orientation: orientation_covariance[0]
   is -1, as mavros), ~imu/mag (MagneticField, tesla), ~imu/static_pressure (FluidPressure,
   Pa) and ~imu/temperature_imu (Temperature, deg C).
@@ -12,6 +14,7 @@ from sensor_msgs.msg import FluidPressure, Imu as ImuMsg, MagneticField, Tempera
 from offboard_py import frames
 
 GAUSS_TO_TESLA = 1e-4
+ACCEL_FRESH_US = 100000  # imu/data uses a HIGHRES_IMU acceleration at most this far (FCU time) from its attitude
 HPA_TO_PA = 100.0
 
 
@@ -19,18 +22,23 @@ class Imu:
     def __init__(self, bridge):
         self.bridge = bridge
         self.accel_flu = (0.0, 0.0, 0.0)
+        self.accel_time_us = None  # FCU time of the HIGHRES_IMU accel_flu comes from
         self.pub = bridge.publisher('~imu/data', ImuMsg)
         self.raw_pub = bridge.publisher('~imu/data_raw', ImuMsg)
         self.mag_pub = bridge.publisher('~imu/mag', MagneticField)
         self.pressure_pub = bridge.publisher('~imu/static_pressure', FluidPressure)
         self.temperature_pub = bridge.publisher('~imu/temperature_imu', Temperature)
-        bridge.on('HIGHRES_IMU', self._on_highres_imu)
-        bridge.on('ATTITUDE_QUATERNION', self._on_attitude)
+        self.raw_listened = bridge.listened(self.raw_pub, self.mag_pub, self.pressure_pub, self.temperature_pub)
+        data_listened = bridge.listened(self.pub)
+        # imu/data takes its acceleration from HIGHRES_IMU: read while either has a subscriber
+        bridge.on('HIGHRES_IMU', self._on_highres_imu, needed=lambda: data_listened() or self.raw_listened())
+        bridge.on('ATTITUDE_QUATERNION', self._on_attitude, needed=data_listened)
+        bridge.reads_attitude(data_listened)
 
     def _on_highres_imu(self, imu):
         self.accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
-        if not (self.raw_pub.get_num_connections() or self.mag_pub.get_num_connections()
-                or self.pressure_pub.get_num_connections() or self.temperature_pub.get_num_connections()):
+        self.accel_time_us = imu.time_usec
+        if not self.raw_listened():
             return
         stamp = self.bridge.fcu_stamp_us(imu.time_usec)
         raw = ImuMsg()
@@ -64,5 +72,7 @@ class Imu:
         w = msg.angular_velocity
         w.x, w.y, w.z = attitude.angular_velocity_flu
         a = msg.linear_acceleration
-        a.x, a.y, a.z = self.accel_flu
+        if self.accel_time_us is not None and abs(att.time_boot_ms * 1000 - self.accel_time_us) <= ACCEL_FRESH_US:
+            a.x, a.y, a.z = self.accel_flu
+        # else zeros, as mavros's before its first HIGHRES_IMU: the last one read is not this attitude's
         self.pub.publish(msg)

@@ -32,10 +32,14 @@ class LocalPosition:
         self.velocity_body_pub = bridge.publisher('~local_position/velocity_body', TwistStamped)
         self.odom_pub = bridge.publisher('~local_position/odom', Odometry)
         self.tf_pub = bridge.publisher('/tf', TFMessage, queue_size=100) if self.tf_send else None
-        bridge.on('LOCAL_POSITION_NED', self._on_local_position)
+        # non-latched topics: nothing is decoded or built for topics nobody listens to (/tf, when
+        # sent, always has its broadcast)
+        pubs = (self.pose_pub, self.velocity_pub, self.velocity_body_pub, self.odom_pub)
+        needed = (lambda: True) if self.tf_send else bridge.listened(*pubs)
+        bridge.on('LOCAL_POSITION_NED', self._on_local_position, needed=needed)
+        bridge.reads_attitude(needed)
 
     def _on_local_position(self, pos):
-        # non-latched topics: build nothing for a topic nobody listens to
         stamp = self.bridge.fcu_stamp_ms(pos.time_boot_ms)
         attitude = self.bridge.attitude
         position = frames.ned_to_enu(pos.x, pos.y, pos.z)

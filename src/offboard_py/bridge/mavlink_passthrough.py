@@ -63,10 +63,10 @@ class MavlinkPassthrough:
         self.pub = bridge.publisher('mavlink/from', Mavlink, queue_size=100)
         self.sub = bridge.subscriber('mavlink/to', Mavlink, self._to_fcu)
         bridge.link.on_frame = self._from_fcu
+        bridge.link.on_frame_needed = bridge.listened(self.pub)
 
     def _from_fcu(self, frame):
-        if self.pub.get_num_connections():
-            self.pub.publish(frame_to_msg(frame, self.bridge.now()))
+        self.pub.publish(frame_to_msg(frame, self.bridge.now()))
 
     def _to_fcu(self, msg):
         try:

@@ -61,8 +61,8 @@ class Setpoint:
                       bridge.subscriber('~setpoint_raw/global', GlobalPositionTarget, self._on_raw_global)]
         self.target_pub = bridge.publisher('~setpoint_raw/target_local', PositionTarget)
         self.target_attitude_pub = bridge.publisher('~setpoint_raw/target_attitude', AttitudeTarget)
-        bridge.on('POSITION_TARGET_LOCAL_NED', self._on_target)
-        bridge.on('ATTITUDE_TARGET', self._on_target_attitude)
+        bridge.on('POSITION_TARGET_LOCAL_NED', self._on_target, needed=bridge.listened(self.target_pub))
+        bridge.on('ATTITUDE_TARGET', self._on_target_attitude, needed=bridge.listened(self.target_attitude_pub))
 
     def reject(self, topic, what):
         """Count and log; at most one line per topic every 5 s (rospy's throttle would merge topics)."""
@@ -113,8 +113,6 @@ class Setpoint:
             0.0, -w.z))
 
     def _on_target(self, tgt):
-        if not self.target_pub.get_num_connections():
-            return
         msg = PositionTarget()
         msg.header.stamp = self.bridge.fcu_stamp_ms(tgt.time_boot_ms)
         msg.coordinate_frame, msg.type_mask = tgt.coordinate_frame, tgt.type_mask
@@ -171,8 +169,6 @@ class Setpoint:
             -msg.yaw_rate if math.isfinite(msg.yaw_rate) else 0.0))
 
     def _on_target_attitude(self, tgt):
-        if not self.target_attitude_pub.get_num_connections():
-            return
         msg = AttitudeTarget(type_mask=tgt.type_mask, thrust=tgt.thrust)
         msg.header.stamp = self.bridge.fcu_stamp_ms(tgt.time_boot_ms)
         q = frames.orientation_ned_to_enu(frames.wxyz_to_xyzw(*tgt.q))

@@ -7,11 +7,9 @@ class VfrHud:
     def __init__(self, bridge):
         self.bridge = bridge
         self.pub = bridge.publisher('~vfr_hud', VfrHudMsg)
-        bridge.on('VFR_HUD', self._on_vfr_hud)
+        bridge.on('VFR_HUD', self._on_vfr_hud, needed=bridge.listened(self.pub))
 
     def _on_vfr_hud(self, hud):
-        if not self.pub.get_num_connections():
-            return
         msg = VfrHudMsg(airspeed=hud.airspeed, groundspeed=hud.groundspeed, heading=hud.heading,
                         throttle=hud.throttle / 100.0, altitude=hud.alt, climb=hud.climb)
         msg.header.stamp = self.bridge.now()
