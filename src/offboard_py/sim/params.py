@@ -113,23 +113,24 @@ class ParamRejected(ValueError):
     """A set that PX4 would refuse: unknown name, wrong value. The message says why."""
 
 
-class ParamStore:
-    """The parameter table: ordered (PARAM_VALUE index), typed, range-checked where modelled."""
+class ParamStore(dict):
+    """The parameter table: ordered (PARAM_VALUE index), typed, range-checked where modelled.
+
+    Read it as a dict of name -> value (a plain dict lookup: the flight model reads some 30
+    values a step); a value changes only through set() (or store[name] = value, which is set()),
+    which checks it."""
 
     def __init__(self, overrides=None, system_id=1, definitions=DEFINITIONS):
+        super().__init__((p.name, p.default) for p in definitions)
         self._defs = {p.name: p for p in definitions}
         self.names = [p.name for p in definitions]
         self._index = {name: i for i, name in enumerate(self.names)}
-        self._values = {p.name: p.default for p in definitions}
-        self._values['MAV_SYS_ID'] = system_id
+        dict.__setitem__(self, 'MAV_SYS_ID', system_id)
         for name, value in (overrides or {}).items():
             self.set(name, value)
 
-    def __len__(self):
-        return len(self.names)
-
-    def __getitem__(self, name):
-        return self._values[name]
+    def __setitem__(self, name, value):
+        self.set(name, value)
 
     def definition(self, name):
         return self._defs[name]
@@ -154,7 +155,7 @@ class ParamStore:
             value = float(value)
         if p.minimum is not None and not p.minimum <= value <= p.maximum:
             raise ParamRejected('%s=%r is outside [%g, %g]' % (name, value, p.minimum, p.maximum))
-        self._values[name] = value
+        dict.__setitem__(self, name, value)
         return value
 
     def parse_override(self, text):

@@ -82,8 +82,8 @@ def quaternion_from_thrust(acc_ned, yaw):
     zb = (-fx / norm, -fy / norm, -fz / norm)          # body z (down) opposite the thrust
     yc = (-math.sin(yaw), math.cos(yaw), 0.0)
     xb = (yc[1] * zb[2] - yc[2] * zb[1], yc[2] * zb[0] - yc[0] * zb[2], yc[0] * zb[1] - yc[1] * zb[0])
-    n = math.sqrt(sum(c * c for c in xb)) or 1.0
-    xb = tuple(c / n for c in xb)
+    n = math.sqrt(xb[0] * xb[0] + xb[1] * xb[1] + xb[2] * xb[2]) or 1.0
+    xb = (xb[0] / n, xb[1] / n, xb[2] / n)
     yb = (zb[1] * xb[2] - zb[2] * xb[1], zb[2] * xb[0] - zb[0] * xb[2], zb[0] * xb[1] - zb[1] * xb[0])
     # rotation matrix columns xb, yb, zb -> quaternion
     m00, m11, m22 = xb[0], yb[1], zb[2]
@@ -115,9 +115,11 @@ class Estimator:
             return self.gust
         decay = math.exp(-dt / GUST_TAU_S)
         spread = math.sqrt(1.0 - decay * decay)
-        for i, sigma in enumerate((GUST_XY, GUST_XY, GUST_Z)):
-            self.gust[i] = decay * self.gust[i] + spread * sigma * self.rng.gauss(0.0, 1.0)
-        return self.gust
+        g, gust = self.rng.gauss, self.gust
+        gust[0] = decay * gust[0] + spread * GUST_XY * g(0.0, 1.0)
+        gust[1] = decay * gust[1] + spread * GUST_XY * g(0.0, 1.0)
+        gust[2] = decay * gust[2] + spread * GUST_Z * g(0.0, 1.0)
+        return gust
 
     def measure(self, position, velocity):
         if self.ideal:
@@ -125,7 +127,8 @@ class Estimator:
         g = self.rng.gauss
         pos = (position[0] + g(0.0, NOISE_POSITION_XY), position[1] + g(0.0, NOISE_POSITION_XY),
                position[2] + g(0.0, NOISE_POSITION_Z))
-        vel = tuple(v + g(0.0, NOISE_VELOCITY) for v in velocity)
+        vel = (velocity[0] + g(0.0, NOISE_VELOCITY), velocity[1] + g(0.0, NOISE_VELOCITY),
+               velocity[2] + g(0.0, NOISE_VELOCITY))
         return pos, vel
 
 
@@ -211,16 +214,18 @@ class Vehicle:
 
     def _velocity_setpoint(self, sp, pos):
         p = self.params
+        position, velocity = sp.position, sp.velocity
+        xy_gain = p['MPC_XY_P']
         vel_sp = [0.0, 0.0, 0.0]
         controlled = [False, False, False]
-        gains = (p['MPC_XY_P'], p['MPC_XY_P'], p['MPC_Z_P'])
-        for i in range(3):
-            ff = sp.velocity[i] if _is(sp.velocity[i]) else 0.0
-            if _is(sp.position[i]):
-                vel_sp[i] = ff + gains[i] * (sp.position[i] - pos[i])
+        for i in (0, 1, 2):
+            v = velocity[i]
+            target = position[i]
+            if target == target:  # not NaN: position control, with the setpoint's velocity as feed-forward
+                vel_sp[i] = (v if v == v else 0.0) + (xy_gain if i < 2 else p['MPC_Z_P']) * (target - pos[i])
                 controlled[i] = True
-            elif _is(sp.velocity[i]):
-                vel_sp[i] = sp.velocity[i]
+            elif v == v:
+                vel_sp[i] = v
                 controlled[i] = True
         xy_max = p['MPC_XY_VEL_MAX'] if sp.xy_speed_max is None else min(sp.xy_speed_max, p['MPC_XY_VEL_MAX'])
         up_max = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
@@ -230,7 +235,8 @@ class Vehicle:
         vel_sp[0], vel_sp[1] = _limit_xy(vel_sp[0], vel_sp[1], xy_max)
         low = -up_max
         vel_sp[2] = _clamp(vel_sp[2], low, max(dn_max, low))
-        self.velocity_setpoint = tuple(v if c else NAN for v, c in zip(vel_sp, controlled))
+        self.velocity_setpoint = (vel_sp[0] if controlled[0] else NAN, vel_sp[1] if controlled[1] else NAN,
+                                  vel_sp[2] if controlled[2] else NAN)
         return vel_sp, controlled
 
     def _control(self, sp, dt):
@@ -238,15 +244,19 @@ class Vehicle:
         p = self.params
         pos, vel = self.estimate
         vel_sp, controlled = self._velocity_setpoint(sp, pos)
-        gains_p = (p['MPC_XY_VEL_P_ACC'], p['MPC_XY_VEL_P_ACC'], p['MPC_Z_VEL_P_ACC'])
+        xy_p, z_p = p['MPC_XY_VEL_P_ACC'], p['MPC_Z_VEL_P_ACC']
         gains_i = (p['MPC_XY_VEL_I_ACC'], p['MPC_XY_VEL_I_ACC'], p['MPC_Z_VEL_I_ACC'])
         gains_d = (p['MPC_XY_VEL_D_ACC'], p['MPC_XY_VEL_D_ACC'], p['MPC_Z_VEL_D_ACC'])
-        error = [vel_sp[i] - vel[i] if controlled[i] else 0.0 for i in range(3)]
+        error = [vel_sp[0] - vel[0] if controlled[0] else 0.0, vel_sp[1] - vel[1] if controlled[1] else 0.0,
+                 vel_sp[2] - vel[2] if controlled[2] else 0.0]
         acc = [0.0, 0.0, 0.0]
-        for i in range(3):
-            ff = sp.acceleration[i] if _is(sp.acceleration[i]) else 0.0
+        sp_acc, integral, achieved = sp.acceleration, self.integral, self.acceleration
+        for i in (0, 1, 2):
+            ff = sp_acc[i]
+            if ff != ff:
+                ff = 0.0
             if controlled[i]:
-                acc[i] = ff + gains_p[i] * error[i] + self.integral[i] - gains_d[i] * self.acceleration[i]
+                acc[i] = ff + (xy_p if i < 2 else z_p) * error[i] + integral[i] - gains_d[i] * achieved[i]
             else:
                 acc[i] = ff
         # acceleration -> thrust (MPC_ACC_DECOUPLE: the vertical thrust holds the vertical acceleration)
@@ -276,13 +286,13 @@ class Vehicle:
             error[2] = 0.0
         produced = (thrust[0] * GRAVITY / hover, thrust[1] * GRAVITY / hover)
         if acc[0] ** 2 + acc[1] ** 2 > produced[0] ** 2 + produced[1] ** 2:
-            arw = 2.0 / gains_p[0]
+            arw = 2.0 / xy_p
             error[0] -= arw * (acc[0] - produced[0])
             error[1] -= arw * (acc[1] - produced[1])
-        for i in range(3):
+        for i in (0, 1, 2):
             if controlled[i]:
-                self.integral[i] += gains_i[i] * error[i] * dt
-        self.integral[2] = _clamp(self.integral[2], -GRAVITY, GRAVITY)
+                integral[i] += gains_i[i] * error[i] * dt
+        integral[2] = _clamp(integral[2], -GRAVITY, GRAVITY)
         self.acceleration_setpoint = acc
         return thrust
 
@@ -312,17 +322,17 @@ class Vehicle:
             self.velocity_setpoint = (NAN, NAN, NAN)
         self.thrust_setpoint = thrust_sp
         alpha = min(1.0, dt / (max(p['SIH_T_TAU'], 0.0) + ATTITUDE_LAG_S))
-        for i in range(3):
-            self.thrust[i] += alpha * (thrust_sp[i] - self.thrust[i])
         mass = max(p['SIH_MASS'], 0.01)  # SIH's airframe parameters are not range-checked
         thrust_acc = 4.0 * p['SIH_T_MAX'] / mass   # m/s^2 at full thrust
         drag = p['SIH_KDV'] / mass
         gust = self.estimator.step_gust(dt) if flying and not self.ground_contact else (0.0, 0.0, 0.0)
-        for i in range(3):
-            self.acceleration[i] = (self.thrust[i] * thrust_acc + (GRAVITY if i == 2 else 0.0)
-                                    - drag * self.velocity[i] + gust[i])
-            self.velocity[i] += self.acceleration[i] * dt
-            self.position[i] += self.velocity[i] * dt
+        thrust, acceleration, velocity, position = self.thrust, self.acceleration, self.velocity, self.position
+        for i in (0, 1, 2):
+            thrust[i] += alpha * (thrust_sp[i] - thrust[i])
+            acceleration[i] = (thrust[i] * thrust_acc + (GRAVITY if i == 2 else 0.0)
+                               - drag * velocity[i] + gust[i])
+            velocity[i] += acceleration[i] * dt
+            position[i] += velocity[i] * dt
         self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
         self._ground(now_s)
         self.estimate = self.estimator.measure(self.position, self.velocity)
@@ -366,11 +376,12 @@ class Vehicle:
         p = self.params
         vel = self.estimate[1]
         hover, thr_min = p['MPC_THR_HOVER'], p['MPC_THR_MIN']
-        thrust = math.sqrt(sum(t * t for t in self.thrust_setpoint))
+        tx, ty, tz = self.thrust_setpoint
+        thrust = math.sqrt(tx * tx + ty * ty + tz * tz)
         low_thrust = thrust <= thr_min + (hover - thr_min) * LOW_THRUST_FRACTION
         minimal_thrust = thrust <= thr_min + (hover - thr_min) * MINIMAL_THRUST_FRACTION
         vz_sp = self.velocity_setpoint[2]
-        descending = _is(vz_sp) and vz_sp >= 1.1 * p['LNDMC_Z_VEL_MAX']
+        descending = vz_sp == vz_sp and vz_sp >= 1.1 * p['LNDMC_Z_VEL_MAX']
         still = abs(vel[2]) < p['LNDMC_Z_VEL_MAX'] and math.hypot(vel[0], vel[1]) < p['LNDMC_XY_VEL_MAX']
         contact = self._stage('contact', (low_thrust or (descending and still)) and still, GROUND_CONTACT_S, now_s)
         maybe = self._stage('maybe', contact and minimal_thrust, MAYBE_LANDED_S, now_s)
@@ -390,7 +401,8 @@ class Vehicle:
 
     def collective_thrust(self):
         """Normalised thrust 0..1 the rotors give now."""
-        return min(1.0, math.sqrt(sum(t * t for t in self.thrust)))
+        tx, ty, tz = self.thrust
+        return min(1.0, math.sqrt(tx * tx + ty * ty + tz * tz))
 
     def specific_force_body(self):
         """What an accelerometer reads (m/s^2, FRD): acceleration minus gravity, in body axes."""
