@@ -219,15 +219,25 @@ class MavlinkLink:
     def _pack(self, msg):
         """The frame of msg with this link's next sequence number (one counter per link, as
         PX4 and mavros keep one per channel)."""
+        return self._pack_all((msg,))[0]
+
+    def _pack_all(self, msgs):
+        """The frames of msgs (pymavlink messages or wire.Packed ones), numbered in order."""
         with self._send_lock:
             mav = self.mav
-            if mav.signing.sign_outgoing:
-                self.signing.stamp_outgoing()
-                frame = msg.pack(mav)  # pymavlink signs; it numbers the frame with mav.seq
-            else:
-                frame = wire.encode(msg, mav.seq, mav.srcSystem, mav.srcComponent)
-            mav.seq = (mav.seq + 1) & 0xFF
-            return frame
+            seq, system_id, component_id = mav.seq, mav.srcSystem, mav.srcComponent
+            frames = []
+            for msg in msgs:
+                if mav.signing.sign_outgoing:
+                    self.signing.stamp_outgoing()
+                    mav.seq = seq
+                    # pymavlink signs; it numbers the frame with mav.seq
+                    frames.append((msg.message() if type(msg) is wire.Packed else msg).pack(mav))
+                else:
+                    frames.append(wire.encode(msg, seq, system_id, component_id))
+                seq = (seq + 1) & 0xFF
+            mav.seq = seq
+            return frames
 
     def send(self, msg):
         """Pack and send a pymavlink message; False when no remote is known yet."""
@@ -245,14 +255,14 @@ class MavlinkLink:
         several frames from one datagram, so what a client decodes is the same."""
         if self.remote is None:
             return False
-        batch = b''
-        for msg in msgs:
-            frame = self._pack(msg)
-            if batch and len(batch) + len(frame) > max_datagram:
-                self.send_bytes(batch)
-                batch = b''
-            batch += frame
-        return self.send_bytes(batch) if batch else True
+        batch, size = [], 0
+        for frame in self._pack_all(msgs):
+            if batch and size + len(frame) > max_datagram:
+                self.send_bytes(b''.join(batch))
+                batch, size = [], 0
+            batch.append(frame)
+            size += len(frame)
+        return self.send_bytes(b''.join(batch)) if batch else True
 
     def send_bytes(self, data):
         if self.remote is None:

@@ -6,12 +6,18 @@ of helper objects; at PX4's 400 messages/s per vehicle that is most of a link's 
   library's parser frames them, and says where junk is, without decoding anything.
 - `crc_ok(frame)` checks a frame's CRC (with its message's CRC_EXTRA) in C, so a link can
   count a frame nobody reads as valid or bad without decoding it.
-- `encode(msg, seq, system_id, component_id)` packs a pymavlink message into the MAVLink 2
-  frame pymavlink would make (byte for byte), with the link's own sequence number.
+- `encode(msg, seq, system_id, component_id)` packs a pymavlink message (or a `Packed` one)
+  into the MAVLink 2 frame pymavlink would make (byte for byte), with the link's own sequence
+  number.
+- `PackingCodec` stands in for a pymavlink codec where messages are built only to be sent: its
+  `xxx_encode(...)` methods take pymavlink's arguments and return a `Packed` message (its class,
+  arguments and payload), packed by one struct call from code made once per message type out
+  of pymavlink's own field tables, without pymavlink's message objects.
 
 Signed frames are left to pymavlink and offboard_py.signing: encode() has no signature.
 """
 
+import inspect
 import struct
 
 from offboard_py.dialect import mavlink
@@ -126,14 +132,85 @@ def payload(msg):
         del msg._pack
 
 
-def encode(msg, seq, system_id, component_id):
-    """The unsigned MAVLink 2 frame of msg, byte for byte what pymavlink packs."""
-    body = payload(msg)
+def frame(msg_id, body, seq, system_id, component_id):
+    """The unsigned MAVLink 2 frame of a message's untrimmed payload."""
     trimmed = body.rstrip(b'\x00') or body[:1]  # MAVLink 2 drops trailing zeros, keeps one byte
-    msg_id = type(msg).id  # the class's: some messages (RAW_IMU, STATUSTEXT) have a field called id
     header = _header_v2.pack(MAGIC_V2, len(trimmed), 0, 0, seq, system_id, component_id, msg_id & 0xFFFF,
                              msg_id >> 16)
     # one CRC call over everything after the magic byte, then CRC_EXTRA (a message's hot path:
     # the simulator packs about 460 a second)
     crc = crc16(header[1:] + trimmed + _CRC_EXTRA_BYTE[msg_id])
     return header + trimmed + _crc_struct.pack(crc)
+
+
+def encode(msg, seq, system_id, component_id):
+    """The unsigned MAVLink 2 frame of msg (a pymavlink message or a Packed one), byte for byte
+    what pymavlink packs."""
+    if type(msg) is Packed:
+        return frame(msg.id, msg.payload, seq, system_id, component_id)
+    # the class's id: some messages (RAW_IMU, STATUSTEXT) have a field called id
+    return frame(type(msg).id, payload(msg), seq, system_id, component_id)
+
+
+class Packed:
+    """A message built by PackingCodec: its pymavlink class, the arguments it was built from
+    (pymavlink's encode order, defaults left out) and its untrimmed payload."""
+
+    __slots__ = ('cls', 'args', 'kwargs', 'payload')
+
+    def __init__(self, cls, args, kwargs, body):
+        self.cls, self.args, self.kwargs, self.payload = cls, args, kwargs, body
+
+    @property
+    def id(self):
+        return self.cls.id
+
+    def get_type(self):
+        return self.cls.msgname
+
+    def message(self):
+        """The same message as a pymavlink object (to sign it, or to read its fields)."""
+        return self.cls(*self.args, **self.kwargs)
+
+
+def _payload_function(cls):
+    """payload(*args) for a message class: its fields in wire order, arrays element by element
+    (char arrays whole, as bytes), in one struct call: what the class's generated pack() does,
+    made from its field tables. Defaults are those of the class's constructor."""
+    types = dict(zip(cls.fieldnames, cls.fieldtypes))
+    items = []
+    for name, length in zip(cls.ordered_fieldnames, cls.array_lengths):
+        if length and types[name] != 'char':
+            items.extend('%s[%d]' % (name, i) for i in range(length))
+        else:
+            items.append(name)
+    defaults = {name: p.default for name, p in inspect.signature(cls.__init__).parameters.items()
+                if name in types and p.default is not inspect.Parameter.empty}
+    params = ', '.join(name + ('=_defaults[%r]' % name if name in defaults else '') for name in cls.fieldnames)
+    source = 'def payload(%s):\n    return _pack(%s)\n' % (params, ', '.join(items))
+    namespace = {'_pack': cls.unpacker.pack, '_defaults': defaults}
+    exec(compile(source, '<payload of %s>' % cls.msgname, 'exec'), namespace)
+    return namespace['payload']
+
+
+class PackingCodec:
+    """pymavlink's `xxx_encode()` methods for messages that are only sent: each returns a Packed
+    message. `srcSystem`/`srcComponent` are those of the codec it stands in for."""
+
+    def __init__(self, mav):
+        self.srcSystem, self.srcComponent = mav.srcSystem, mav.srcComponent
+
+    def __getattr__(self, name):
+        cls = _CLASS_BY_ENCODER.get(name)
+        if cls is None:
+            raise AttributeError(name)
+        make_payload = _payload_function(cls)
+
+        def encode(*args, **kwargs):
+            return Packed(cls, args, kwargs, make_payload(*args, **kwargs))
+        encode.__name__ = name
+        setattr(self, name, encode)  # made once per codec and message type
+        return encode
+
+
+_CLASS_BY_ENCODER = {cls.msgname.lower() + '_encode': cls for cls in mavlink.mavlink_map.values()}

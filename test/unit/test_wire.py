@@ -8,6 +8,7 @@
 - A link decodes only the types its handlers read, and still counts and checks the rest.
 """
 
+import inspect
 import random
 import struct
 
@@ -56,6 +57,33 @@ def test_encode_is_pymavlinks_frame(msg_id):
         assert wire.encode(msg, seq, 42, 190) == msg.pack(reference), cls.msgname
         # and the message is left as it was: pymavlink can still pack it
         assert msg.pack(reference) == wire.encode(msg, seq, 42, 190)
+
+
+@pytest.mark.parametrize('msg_id', sorted(mavlink.mavlink_map))
+def test_packing_codec_makes_pymavlinks_frame(msg_id):
+    """PackingCodec's xxx_encode() takes pymavlink's arguments, defaults included, and its Packed
+    message frames byte for byte as pymavlink's message; message() gives that message back."""
+    rng = random.Random(msg_id + 1000)
+    cls = mavlink.mavlink_map[msg_id]
+    codec = wire.PackingCodec(mavlink.MAVLink(None, srcSystem=42, srcComponent=190))
+    encoder = getattr(codec, cls.msgname.lower() + '_encode')
+    for seq in (0, 255):
+        sample = sample_message(cls, rng)
+        args = [getattr(sample, '_%s_raw' % name, getattr(sample, name)) for name in cls.fieldnames]
+        packed = encoder(*args)
+        reference = mavlink.MAVLink(None, srcSystem=42, srcComponent=190)
+        reference.seq = seq
+        assert wire.encode(packed, seq, 42, 190) == sample.pack(reference), cls.msgname
+        assert packed.get_type() == cls.msgname and packed.id == msg_id
+        assert packed.message().pack(reference) == sample.pack(reference)
+    # the constructor's defaults (extension fields) are the codec's too
+    required = [name for name, p in inspect.signature(cls.__init__).parameters.items()
+                if name != 'self' and p.default is inspect.Parameter.empty]
+    if len(required) < len(cls.fieldnames):
+        sample = sample_message(cls, rng)
+        args = [getattr(sample, '_%s_raw' % name, getattr(sample, name)) for name in required]
+        reference = mavlink.MAVLink(None, srcSystem=42, srcComponent=190)
+        assert wire.encode(encoder(*args), 0, 42, 190) == cls(*args).pack(reference), cls.msgname
 
 
 def test_a_link_numbers_its_frames():
