@@ -231,8 +231,7 @@ class MavlinkLink:
                 if mav.signing.sign_outgoing:
                     self.signing.stamp_outgoing()
                     mav.seq = seq
-                    # pymavlink signs; it numbers the frame with mav.seq
-                    frames.append((msg.message() if type(msg) is wire.Packed else msg).pack(mav))
+                    frames.append(msg.pack(mav))  # pymavlink signs; it numbers the frame with mav.seq
                 else:
                     frames.append(wire.encode(msg, seq, system_id, component_id))
                 seq = (seq + 1) & 0xFF

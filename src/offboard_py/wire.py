@@ -153,13 +153,13 @@ def encode(msg, seq, system_id, component_id):
 
 
 class Packed:
-    """A message built by PackingCodec: its pymavlink class, the arguments it was built from
-    (pymavlink's encode order, defaults left out) and its untrimmed payload."""
+    """A message built by PackingCodec: its pymavlink class, pymavlink's encode method for it and
+    the arguments it was called with, and its untrimmed payload."""
 
-    __slots__ = ('cls', 'args', 'kwargs', 'payload')
+    __slots__ = ('cls', 'encoder', 'args', 'kwargs', 'payload')
 
-    def __init__(self, cls, args, kwargs, body):
-        self.cls, self.args, self.kwargs, self.payload = cls, args, kwargs, body
+    def __init__(self, cls, encoder, args, kwargs, body):
+        self.cls, self.encoder, self.args, self.kwargs, self.payload = cls, encoder, args, kwargs, body
 
     @property
     def id(self):
@@ -170,13 +170,18 @@ class Packed:
 
     def message(self):
         """The same message as a pymavlink object (to sign it, or to read its fields)."""
-        return self.cls(*self.args, **self.kwargs)
+        return self.encoder(*self.args, **self.kwargs)
+
+    def pack(self, mav):
+        """pymavlink's pack(): the frame as `mav` numbers (and signs) it."""
+        return self.message().pack(mav)
 
 
-def _payload_function(cls):
+def _payload_function(cls, encoder):
     """payload(*args) for a message class: its fields in wire order, arrays element by element
     (char arrays whole, as bytes), in one struct call: what the class's generated pack() does,
-    made from its field tables. Defaults are those of the class's constructor."""
+    made from its field tables. Defaults are those of pymavlink's `encoder` method for it (they
+    may differ from the class's constructor: heartbeat_encode's mavlink_version is 3)."""
     types = dict(zip(cls.fieldnames, cls.fieldtypes))
     items = []
     for name, length in zip(cls.ordered_fieldnames, cls.array_lengths):
@@ -184,7 +189,7 @@ def _payload_function(cls):
             items.extend('%s[%d]' % (name, i) for i in range(length))
         else:
             items.append(name)
-    defaults = {name: p.default for name, p in inspect.signature(cls.__init__).parameters.items()
+    defaults = {name: p.default for name, p in inspect.signature(encoder).parameters.items()
                 if name in types and p.default is not inspect.Parameter.empty}
     params = ', '.join(name + ('=_defaults[%r]' % name if name in defaults else '') for name in cls.fieldnames)
     source = 'def payload(%s):\n    return _pack(%s)\n' % (params, ', '.join(items))
@@ -198,16 +203,18 @@ class PackingCodec:
     message. `srcSystem`/`srcComponent` are those of the codec it stands in for."""
 
     def __init__(self, mav):
+        self._mav = mav
         self.srcSystem, self.srcComponent = mav.srcSystem, mav.srcComponent
 
     def __getattr__(self, name):
         cls = _CLASS_BY_ENCODER.get(name)
-        if cls is None:
+        if cls is None or name.startswith('_'):
             raise AttributeError(name)
-        make_payload = _payload_function(cls)
+        pymavlink_encode = getattr(self._mav, name)
+        make_payload = _payload_function(cls, pymavlink_encode)
 
         def encode(*args, **kwargs):
-            return Packed(cls, args, kwargs, make_payload(*args, **kwargs))
+            return Packed(cls, pymavlink_encode, args, kwargs, make_payload(*args, **kwargs))
         encode.__name__ = name
         setattr(self, name, encode)  # made once per codec and message type
         return encode

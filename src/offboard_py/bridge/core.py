@@ -21,6 +21,7 @@ import time
 
 import rospy
 
+from offboard_py import wire
 from offboard_py.bridge import filters
 from offboard_py.bridge.attitude import Attitude
 
@@ -37,7 +38,8 @@ class Bridge:
         self.target_system = cfg['target_system_id']
         self.target_component = cfg['target_component_id']
         self.link = link
-        self.mav = link.mav
+        # what plugins build they send: pymavlink's encode methods without message objects
+        self.mav = wire.PackingCodec(link.mav)
         self.gcs = gcs
         if gcs:
             link.on_datagram = gcs.send_bytes     # FCU -> GCS, raw
