@@ -153,10 +153,12 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
         beside.start()
     try:
         deadline = time.monotonic() + startup_timeout_s
-        while not all('hover' in w.phases for w in watches):
+        while True:
             for w in watches:
                 if 'hover' in w.phases:
                     w.stop_watching_pose()
+            if all('hover' in w.phases for w in watches):
+                break
             if time.monotonic() > deadline:
                 missing = [i for i, w in enumerate(watches) if 'hover' not in w.phases]
                 raise RuntimeError('vehicles %s not hovering after %.0f s' % (missing, startup_timeout_s))

@@ -82,6 +82,34 @@ def test_onboard_rates_and_fields_as_px4_sitl(start_sim):
     assert abs(gps_alt - global_alt) < 500, 'GPS_RAW_INT.alt %d mm, GLOBAL_POSITION_INT.alt %d mm' % (gps_alt, global_alt)
 
 
+def test_two_steps_a_datagram_each_message_at_its_own_step(start_sim):
+    """PX4 sends each message in a datagram of its own; the simulator sends the streams of two 10 ms
+    steps together (--steps-per-datagram 2, the default: each datagram costs both ends a wake-up or
+    a sendto, README "Benchmark"), and each message keeps its own step's time: 50 datagrams a
+    second with ATTITUDE still at 100 Hz, its time_boot_ms 10 ms apart. With 1, one a step."""
+    for steps, datagrams_hz in ((2, 50.0), (1, 100.0)):
+        _, client = start_sim(*FAST, '--steps-per-datagram', str(steps))
+        wait_ready(client)
+        t0 = client.now()
+        client.sleep(3.0)
+        window = [(t, m) for t, m in list(client.history) if t0 <= t <= client.now()]
+        arrivals = sorted({t for t, _ in window})  # a datagram's messages share its kernel arrival stamp
+        rate = (len(arrivals) - 1) / (arrivals[-1] - arrivals[0])
+        assert abs(rate - datagrams_hz) <= 0.1 * datagrams_hz, \
+            '--steps-per-datagram %d: %.1f datagrams/s, expected %g' % (steps, rate, datagrams_hz)
+        attitude_ms = [m.time_boot_ms for _, m in window if m.get_type() == 'ATTITUDE']
+        gaps = [b - a for a, b in zip(attitude_ms, attitude_ms[1:])]
+        assert set(gaps) <= {9, 10, 11} and abs(sum(gaps) / len(gaps) - 10.0) < 0.2, \
+            'ATTITUDE time_boot_ms steps %s (expected 10 ms: each message at its own step)' % sorted(set(gaps))
+        per_datagram = {}
+        for t, m in window:
+            per_datagram[t] = per_datagram.get(t, 0) + (m.get_type() == 'ATTITUDE')
+        counts = list(per_datagram.values())
+        # a late wake-up (a loaded machine) may carry one step more: nine in ten must be as configured
+        assert counts.count(steps) >= 0.9 * len(counts), \
+            'ATTITUDE per datagram: %s, expected %d' % (sorted(counts), steps)
+
+
 def test_answers_as_px4_sitl(start_sim):
     _, client = start_sim(*FAST)
     wait_ready(client)
