@@ -198,12 +198,7 @@ class MavlinkLink:
 
     def _needed_now(self, msg_id):
         """Whether a frame of this wanted type is to be decoded now."""
-        if msg_id in self._always_ids:
-            return True
-        for needed in self._needed[msg_id]:
-            if needed():
-                return True
-        return False
+        return msg_id in self._always_ids or any(needed() for needed in self._needed[msg_id])
 
     # -- signing ----------------------------------------------------------------------------
 

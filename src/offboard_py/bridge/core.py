@@ -76,12 +76,7 @@ class Bridge:
     @staticmethod
     def listened(*publishers):
         """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
-        def needed():
-            for publisher in publishers:
-                if publisher.get_num_connections():
-                    return True
-            return False
-        return needed
+        return lambda: any(publisher.get_num_connections() for publisher in publishers)
 
     def reads_attitude(self, needed):
         """A plugin that reads `attitude` when it publishes says when it does; the cache follows
@@ -89,10 +84,7 @@ class Bridge:
         self._attitude_readers.append(needed)
 
     def _attitude_needed(self):
-        for needed in self._attitude_readers:
-            if needed():
-                return True
-        return False
+        return any(needed() for needed in self._attitude_readers)
 
     def send(self, msg):
         """Send to the FCU; False while its address is unknown."""
