@@ -2,8 +2,8 @@
 
 A plugin is a class built with the Bridge and using only this interface:
 - MAVLink: `on(msg_type, handler, accept=filters.SYSTEM, needed=None)`, `send(msg)`, `mav` (the
-  codec that builds messages), `target_system`, `target_component`, `attitude` (the shared cache,
-  kept while a `reads_attitude(needed)` says so); `listened(*publishers)` makes a `needed`;
+  codec that builds messages), `target_system`, `target_component`, `attitude` (the shared
+  cache); `listened(*publishers)` makes a `needed`;
 - ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
   to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
@@ -52,11 +52,10 @@ class Bridge:
         self.connected = False
         self._connection_listeners = []
         self.attitude = Attitude()
-        self._attitude_readers = []  # needed() of each plugin that reads the attitude cache
         self.clock_offset = None  # the sys_time plugin, when loaded: stamp_ns(fcu_ns)
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         # registered before any plugin's handler, so readers see this message's attitude
-        self.on('ATTITUDE_QUATERNION', self.attitude.update, needed=self._attitude_needed)
+        self.on('ATTITUDE_QUATERNION', self.attitude.update)
         self.plugins = [plugin(self) for plugin in plugins]
         self._running = False
         self._thread = None
@@ -77,14 +76,6 @@ class Bridge:
     def listened(*publishers):
         """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
         return lambda: any(publisher.get_num_connections() for publisher in publishers)
-
-    def reads_attitude(self, needed):
-        """A plugin that reads `attitude` when it publishes says when it does; the cache follows
-        ATTITUDE_QUATERNION while any reader needs it."""
-        self._attitude_readers.append(needed)
-
-    def _attitude_needed(self):
-        return any(needed() for needed in self._attitude_readers)
 
     def send(self, msg):
         """Send to the FCU; False while its address is unknown."""

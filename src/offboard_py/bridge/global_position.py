@@ -62,7 +62,6 @@ class GlobalPosition:
         bridge.on('GLOBAL_POSITION_INT', self._on_global_position,
                   needed=lambda: self.origin is None or listened())
         bridge.on('GPS_RAW_INT', self._on_gps_raw)  # the fix status the other topics and diagnostics give
-        bridge.reads_attitude(bridge.listened(self.local_pub))
         bridge.diagnostic('GPS', self._gps_status)
 
     def _gps_status(self):

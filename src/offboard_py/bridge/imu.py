@@ -1,9 +1,9 @@
 """mavros imu: the IMU in ROS frames (FLU body), frame base_link.
 
 - ~imu/data (sensor_msgs/Imu): orientation and angular velocity from the bridge's attitude
-  cache, linear acceleration from the latest HIGHRES_IMU (zeros when that one is more than
-  0.1 s of FCU time from the attitude, as before the first: it is read only while someone
-  listens); on every ATTITUDE_QUATERNION;
+  cache, linear acceleration from the latest HIGHRES_IMU; on every ATTITUDE_QUATERNION
+  (decoded only while imu/data has a subscriber; HIGHRES_IMU always, so the first imu/data a
+  new subscriber gets has the acceleration of now, as with mavros);
 - from each HIGHRES_IMU: ~imu/data_raw (Imu without orientation: orientation_covariance[0]
   is -1, as mavros), ~imu/mag (MagneticField, tesla), ~imu/static_pressure (FluidPressure,
   Pa) and ~imu/temperature_imu (Temperature, deg C).
@@ -14,7 +14,6 @@ from sensor_msgs.msg import FluidPressure, Imu as ImuMsg, MagneticField, Tempera
 from offboard_py import frames
 
 GAUSS_TO_TESLA = 1e-4
-ACCEL_FRESH_US = 100000  # imu/data uses a HIGHRES_IMU acceleration at most this far (FCU time) from its attitude
 HPA_TO_PA = 100.0
 
 
@@ -22,7 +21,6 @@ class Imu:
     def __init__(self, bridge):
         self.bridge = bridge
         self.accel_flu = (0.0, 0.0, 0.0)
-        self.accel_time_us = None  # FCU time of the HIGHRES_IMU accel_flu comes from
         self.pub = bridge.publisher('~imu/data', ImuMsg)
         self.raw_pub = bridge.publisher('~imu/data_raw', ImuMsg)
         self.mag_pub = bridge.publisher('~imu/mag', MagneticField)
@@ -30,14 +28,13 @@ class Imu:
         self.temperature_pub = bridge.publisher('~imu/temperature_imu', Temperature)
         self.raw_listened = bridge.listened(self.raw_pub, self.mag_pub, self.pressure_pub, self.temperature_pub)
         data_listened = bridge.listened(self.pub)
-        # imu/data takes its acceleration from HIGHRES_IMU: read while either has a subscriber
-        bridge.on('HIGHRES_IMU', self._on_highres_imu, needed=lambda: data_listened() or self.raw_listened())
+        # always read: imu/data's acceleration must be now's from its subscriber's first message on
+        # (a subscriber such as rospy.wait_for_message takes the first one)
+        bridge.on('HIGHRES_IMU', self._on_highres_imu)
         bridge.on('ATTITUDE_QUATERNION', self._on_attitude, needed=data_listened)
-        bridge.reads_attitude(data_listened)
 
     def _on_highres_imu(self, imu):
         self.accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
-        self.accel_time_us = imu.time_usec
         if not self.raw_listened():
             return
         stamp = self.bridge.fcu_stamp_us(imu.time_usec)
@@ -72,7 +69,5 @@ class Imu:
         w = msg.angular_velocity
         w.x, w.y, w.z = attitude.angular_velocity_flu
         a = msg.linear_acceleration
-        if self.accel_time_us is not None and abs(att.time_boot_ms * 1000 - self.accel_time_us) <= ACCEL_FRESH_US:
-            a.x, a.y, a.z = self.accel_flu
-        # else zeros, as mavros's before its first HIGHRES_IMU: the last one read is not this attitude's
+        a.x, a.y, a.z = self.accel_flu
         self.pub.publish(msg)

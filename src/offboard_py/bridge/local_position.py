@@ -37,7 +37,6 @@ class LocalPosition:
         pubs = (self.pose_pub, self.velocity_pub, self.velocity_body_pub, self.odom_pub)
         needed = (lambda: True) if self.tf_send else bridge.listened(*pubs)
         bridge.on('LOCAL_POSITION_NED', self._on_local_position, needed=needed)
-        bridge.reads_attitude(needed)
 
     def _on_local_position(self, pos):
         stamp = self.bridge.fcu_stamp_ms(pos.time_boot_ms)
