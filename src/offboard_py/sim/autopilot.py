@@ -17,7 +17,6 @@ import collections
 import logging
 import math
 import select
-import time
 
 from offboard_py import param_codec, px4_modes, wire
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
