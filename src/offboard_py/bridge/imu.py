@@ -1,9 +1,8 @@
 """mavros imu: the IMU in ROS frames (FLU body), frame base_link.
 
 - ~imu/data (sensor_msgs/Imu): orientation and angular velocity from the bridge's attitude
-  cache, linear acceleration from the latest HIGHRES_IMU; on every ATTITUDE_QUATERNION
-  (decoded only while imu/data has a subscriber; HIGHRES_IMU always, so the first imu/data a
-  new subscriber gets has the acceleration of now, as with mavros);
+  cache, linear acceleration from the latest HIGHRES_IMU; on every ATTITUDE_QUATERNION (both
+  always read, as mavros reads them, so the first imu/data a new subscriber gets is now's);
 - from each HIGHRES_IMU: ~imu/data_raw (Imu without orientation: orientation_covariance[0]
   is -1, as mavros), ~imu/mag (MagneticField, tesla), ~imu/static_pressure (FluidPressure,
   Pa) and ~imu/temperature_imu (Temperature, deg C).
@@ -27,11 +26,10 @@ class Imu:
         self.pressure_pub = bridge.publisher('~imu/static_pressure', FluidPressure)
         self.temperature_pub = bridge.publisher('~imu/temperature_imu', Temperature)
         self.raw_listened = bridge.listened(self.raw_pub, self.mag_pub, self.pressure_pub, self.temperature_pub)
-        data_listened = bridge.listened(self.pub)
         # always read: imu/data's acceleration must be now's from its subscriber's first message on
         # (a subscriber such as rospy.wait_for_message takes the first one)
         bridge.on('HIGHRES_IMU', self._on_highres_imu)
-        bridge.on('ATTITUDE_QUATERNION', self._on_attitude, needed=data_listened)
+        bridge.on('ATTITUDE_QUATERNION', self._on_attitude)
 
     def _on_highres_imu(self, imu):
         self.accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)

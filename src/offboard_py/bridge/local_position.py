@@ -35,8 +35,8 @@ class LocalPosition:
         # non-latched topics: nothing is decoded or built for topics nobody listens to (/tf, when
         # sent, always has its broadcast)
         pubs = (self.pose_pub, self.velocity_pub, self.velocity_body_pub, self.odom_pub)
-        needed = (lambda: True) if self.tf_send else bridge.listened(*pubs)
-        bridge.on('LOCAL_POSITION_NED', self._on_local_position, needed=needed)
+        bridge.on('LOCAL_POSITION_NED', self._on_local_position,
+                  needed=None if self.tf_send else bridge.listened(*pubs))
 
     def _on_local_position(self, pos):
         stamp = self.bridge.fcu_stamp_ms(pos.time_boot_ms)
