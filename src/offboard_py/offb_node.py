@@ -62,11 +62,10 @@ class OffbNode:
 
     def _stream(self, _event):
         """One tick of the tutorial's loop: publish the setpoint, then see whether a request is due."""
-        now_s = rospy.get_time()
         with self.lock:
             streaming = self.logic.should_stream()
         if not streaming:
-            self._log_waiting(now_s)
+            self._log_waiting(rospy.get_time())
             return
         self.setpoint.header.stamp = rospy.Time.now()
         try:
