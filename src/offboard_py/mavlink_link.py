@@ -287,9 +287,10 @@ class MavlinkLink:
         """Take one datagram on its own: UDP carries whole frames, so a truncated frame at the
         end of one datagram must not swallow the frames of the next.
 
-        Only the frames of message types a handler reads are decoded; the others are
-        CRC-checked and counted, as the MAVLink C library frames what it does not use. With
-        signing on, every frame is decoded: its signature decides whether it counts."""
+        Only the frames of message types a handler reads are decoded (wire.decode: pymavlink's
+        message objects, made faster); the others are CRC-checked and counted, as the MAVLink C
+        library frames what it does not use. With signing on, every frame goes through
+        pymavlink's decode: its signature decides whether it counts."""
         self.stats['datagrams'] += 1
         if self.lock_remote and sender is not None:
             if not self.partner_locked and not self._lock_partner(sender):
@@ -303,6 +304,7 @@ class MavlinkLink:
         frame_hook = self.on_frame if self.on_frame is not None and self.on_frame_needed() else None
         last_seq = self._last_seq
         messages, undecoded, bad, foreign, dropped, from_peer = [], 0, 0, 0, 0, peer is None
+        needed_now = {}
         for msg_id, frame in wire.split(data):
             if msg_id is None:
                 bad += 1
@@ -318,17 +320,30 @@ class MavlinkLink:
                 else:
                     bad += 1
                 continue
-            if not decode_all and (msg_id not in wanted or not self._needed_now(msg_id)):
-                if not wire.crc_ok(msg_id, frame):
-                    bad += 1
-                    continue
-                undecoded += 1
-            else:
+            if decode_all:
                 try:
                     messages.append(self.mav.decode(bytearray(frame)))
                 except Exception:  # pymavlink raises assorted errors on hostile bytes
                     bad += 1
                     continue
+            elif not wire.crc_ok(msg_id, frame):
+                bad += 1
+                continue
+            elif msg_id not in wanted:
+                undecoded += 1
+            else:
+                needed = needed_now.get(msg_id)
+                if needed is None:  # asked once a datagram
+                    needed = needed_now[msg_id] = self._needed_now(msg_id)
+                if not needed:
+                    undecoded += 1
+                else:
+                    try:
+                        msg = wire.decode(msg_id, frame)
+                        messages.append(msg if msg is not None else self.mav.decode(bytearray(frame)))
+                    except Exception:  # hostile bytes: a string field that is not UTF-8, ...
+                        bad += 1
+                        continue
             from_peer = from_peer or source == peer
             # frames a sender's sequence numbers say were lost, per sender
             seq = frame[4] if v2 else frame[2]

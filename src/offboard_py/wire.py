@@ -6,6 +6,9 @@ of helper objects; at PX4's 400 messages/s per vehicle that is most of a link's 
   library's parser frames them, and says where junk is, without decoding anything.
 - `crc_ok(frame)` checks a frame's CRC (with its message's CRC_EXTRA) in C, so a link can
   count a frame nobody reads as valid or bad without decoding it.
+- `decode(msg_id, frame)` turns a checked, unsigned frame into the message object pymavlink's
+  MAVLink.decode() makes of it (same class, fields, header, buffers), with one struct call and
+  a field order worked out once per message type.
 - `encode(msg, seq, system_id, component_id)` packs a pymavlink message (or a `Packed` one)
   into the MAVLink 2 frame pymavlink would make (byte for byte), with the link's own sequence
   number.
@@ -18,6 +21,7 @@ Signed frames are left to pymavlink and offboard_py.signing: encode() has no sig
 """
 
 import inspect
+import operator
 import struct
 
 from offboard_py.dialect import mavlink
@@ -111,6 +115,73 @@ def crc_ok(msg_id, frame):
     end = (HEADER_V2 if frame[0] == MAGIC_V2 else HEADER_V1) + frame[1]
     crc = crc16(bytes(frame[1:end]) + _CRC_EXTRA_BYTE.get(msg_id, b'\x00'))
     return crc == _crc_struct.unpack_from(frame, end)[0]
+
+
+class _Reader:
+    """How one message type's payload becomes pymavlink's constructor arguments: the steps of
+    pymavlink's decode() (zero-fill a trimmed payload, unpack, put the wire-ordered fields back
+    in the XML's order, gather arrays, strip strings' trailing NULs), worked out once."""
+
+    def __init__(self, cls):
+        self.cls = cls
+        self.size = cls.unpacker.size
+        self.unpack = cls.unpacker.unpack
+        sample = self.unpack(bytes(self.size))  # which unpacked items are strings (bytes)
+        if sum(cls.lengths) == len(cls.lengths):  # no arrays: a reordering
+            self.spans = None
+            self.order = operator.itemgetter(*cls.orders) if len(cls.orders) > 1 else (lambda t: (t[cls.orders[0]],))
+            self.strings = [i for i, j in enumerate(cls.orders) if isinstance(sample[j], bytes)]
+        else:
+            self.spans, self.strings = [], []
+            for i, order in enumerate(cls.orders):
+                length, tip = cls.lengths[order], sum(cls.lengths[:order])
+                whole = length == 1 or isinstance(sample[tip], bytes)
+                self.spans.append((tip, tip + (1 if whole else length), whole))
+                if isinstance(sample[tip], bytes):
+                    self.strings.append(i)
+
+    def fields(self, body):
+        if len(body) < self.size:
+            body = body + bytes(self.size - len(body))
+        elif len(body) > self.size:
+            body = body[:self.size]
+        t = self.unpack(body)
+        if self.spans is None:
+            values = list(self.order(t))
+        else:
+            values = [t[tip] if whole else list(t[tip:end]) for tip, end, whole in self.spans]
+        for i in self.strings:
+            values[i] = values[i].rstrip(b'\x00')
+        return values
+
+
+_READERS = {}
+
+
+def decode(msg_id, frame):
+    """The pymavlink message of an unsigned frame from split() whose CRC crc_ok() has checked, as
+    MAVLink.decode(bytearray(frame)) makes it (class, fields, _header, _msgbuf, _payload, _crc);
+    None for a message id the dialect does not know or a signed frame (pymavlink's decode then)."""
+    reader = _READERS.get(msg_id)
+    if reader is None:
+        cls = mavlink.mavlink_map.get(msg_id)
+        if cls is None:
+            return None
+        reader = _READERS[msg_id] = _Reader(cls)
+    if frame[0] == MAGIC_V2:
+        if frame[2] & IFLAG_SIGNED:
+            return None
+        start, incompat, compat, seq, system, component = 10, frame[2], frame[3], frame[4], frame[5], frame[6]
+    else:
+        start, incompat, compat, seq, system, component = 6, 0, 0, frame[2], frame[3], frame[4]
+    length = frame[1]
+    msg = reader.cls(*reader.fields(frame[start:start + length]))
+    buf = bytearray(frame)
+    msg._msgbuf = buf
+    msg._payload = buf[6:-2]  # sic: pymavlink slices from 6 whatever the header's length
+    msg._crc = frame[-2] | frame[-1] << 8
+    msg._header = mavlink.MAVLink_header(msg_id, incompat, compat, length, seq, system, component)
+    return msg
 
 
 # -- send ------------------------------------------------------------------------------------
