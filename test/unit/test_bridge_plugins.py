@@ -967,3 +967,20 @@ def test_raw_mavlink_from_and_to():
     msg.magic = 0x55
     with pytest.raises(ValueError, match='magic 0x55'):
         mp.msg_to_frame(msg)
+
+
+def test_timers_wait_for_a_wake_up_within_their_slack_and_keep_their_rate():
+    """The receive loop sleeps until a task's due time plus core.TIMER_SLACK_S (so that while the FCU
+    streams, the timers run in the wake-ups its datagrams cause); a task run late stays on its
+    schedule: ten runs, each up to the slack late, are ten periods."""
+    rig = Rig(setpoint.Setpoint)  # a plugin without timers of its own
+    assert rig.bridge._periodic == [] and rig.bridge._next_due_s() is None
+    runs = []
+    task = rig.bridge.every(0.1, runs.append)
+    due_s = task[1]
+    assert rig.bridge._next_due_s() == pytest.approx(due_s + core.TIMER_SLACK_S)
+    for i in range(10):
+        rig.bridge.run_periodic(due_s + 0.1 * i + core.TIMER_SLACK_S * 0.9)
+    assert len(runs) == 10 and task[1] == pytest.approx(due_s + 1.0), 'late runs, the same schedule'
+    rig.bridge.run_periodic(due_s + 0.99)
+    assert len(runs) == 10, 'not before its time'

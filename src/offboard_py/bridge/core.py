@@ -28,6 +28,9 @@ from offboard_py.bridge.attitude import Attitude
 
 WAIT_SLICE_S = 0.02  # wall seconds between looks at a deadline on the bridge's clock
 MAX_WAIT_S = 0.2     # the receive loop's longest sleep in real time (how soon it sees stop())
+# How late a periodic task may run (bridge clock) so that it runs in a wake-up the FCU's datagrams
+# cause anyway (PX4 sends hundreds a second, the simulated PX4 50) instead of one of its own.
+TIMER_SLACK_S = 0.02
 RETRY_DELAYS_S = (1.0, 2.0, 4.0, 8.0, 16.0, 30.0)  # between tries of a connection-time pull; then every 30 s
 
 class Bridge:
@@ -77,9 +80,9 @@ class Bridge:
         """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
         return lambda: any(publisher.get_num_connections() for publisher in publishers)
 
-    def send(self, msg):
-        """Send to the FCU; False while its address is unknown."""
-        return self.link.send(msg)
+    def send(self, msg, *more):
+        """Send to the FCU, several messages in one datagram; False while its address is unknown."""
+        return self.link.send_many((msg,) + more) if more else self.link.send(msg)
 
     # -- ROS ----------------------------------------------------------------------------------
 
@@ -138,8 +141,19 @@ class Bridge:
         return True
 
     def every(self, period_s, callback):
-        """Call callback(now_s) every period_s from the receive thread."""
-        self._periodic.append([period_s, self._clock(), callback])
+        """Call callback(now_s) every period_s from the receive thread; returns the task (for take_early)."""
+        task = [period_s, self._clock(), callback]
+        self._periodic.append(task)
+        return task
+
+    def take_early(self, task, now_s):
+        """True, and the periodic task counted as run, when its next run is due within one period
+        of now_s: its caller does the work now, in step with something else; the schedule (and so
+        the rate) stays that of every()."""
+        if task[1] - now_s >= task[0]:
+            return False
+        task[1] = max(task[1], now_s) + task[0]
+        return True
 
     def run_periodic(self, now_s):
         """Run the periodic callbacks that are due at now_s (the receive loop's clock)."""
@@ -222,9 +236,14 @@ class Bridge:
         self._thread.start()
 
     def _next_due_s(self):
-        """When the next periodic or one-shot task is due (bridge clock); None without any."""
+        """When the loop must wake for its tasks (bridge clock): the earliest due time plus
+        TIMER_SLACK_S; None without any task. A task runs at the first wake-up at or after its
+        due time, so while the FCU streams, the timers (TIMESYNC and HEARTBEAT out, the
+        connection timeout, diagnostics) run in the wake-ups its datagrams cause, up to
+        TIMER_SLACK_S late; a periodic task stays on its schedule (due + period), so its rate
+        is exact."""
         due = [task[1] for task in self._periodic] + [task[0] for task in self._one_shots]
-        return min(due) if due else None
+        return min(due) + TIMER_SLACK_S if due else None
 
     def _loop(self):
         """Wake when a datagram comes or a task is due, not on a fixed tick: each wake-up of the
