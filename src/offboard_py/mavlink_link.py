@@ -161,8 +161,7 @@ class MavlinkLink:
         self._needed = {}         # ... and these (id -> [needed()]) while one of their handlers needs them
         self._last_seq = {}       # (system, component) -> the last sequence number received
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
-        self.on_frame = None     # optional raw hook: on_frame(bytes) for each valid frame, read or not, ...
-        self.on_frame_needed = lambda: True  # ... while this says so (asked once a datagram)
+        self._frame_hook = None  # on_frames(): (hook, needed) for the raw frames
         self.stats = collections.Counter()
         self.last_receive_s = None
         self.signing = LinkSigning(self.mav, self._send_lock, self.stats)
@@ -195,6 +194,11 @@ class MavlinkLink:
             self._always_ids.add(msg_id)
         else:
             self._needed.setdefault(msg_id, []).append(needed)
+
+    def on_frames(self, hook, needed=None):
+        """Call hook(frame bytes) for each valid frame, read or not, while `needed()` says so
+        (None: always; asked once a datagram), as on() does for messages."""
+        self._frame_hook = (hook, needed)
 
     def _needed_now(self, msg_id):
         """Whether a frame of this wanted type is to be decoded now."""
@@ -301,7 +305,9 @@ class MavlinkLink:
         decode_all = self.signing.active
         wanted = self._wanted_ids
         peer = self.peer
-        frame_hook = self.on_frame if self.on_frame is not None and self.on_frame_needed() else None
+        frame_hook = None
+        if self._frame_hook is not None and (self._frame_hook[1] is None or self._frame_hook[1]()):
+            frame_hook = self._frame_hook[0]
         last_seq = self._last_seq
         messages, undecoded, bad, foreign, dropped, from_peer = [], 0, 0, 0, 0, peer is None
         needed_now = {}
@@ -312,7 +318,7 @@ class MavlinkLink:
             v2 = frame[0] == wire.MAGIC_V2
             source = (frame[5], frame[6]) if v2 else (frame[3], frame[4])
             if peer is not None and source[0] != peer[0]:
-                # another system's frame: checked (a valid one is still raw data for on_frame), never decoded
+                # another system's frame: checked (a valid one is still raw data for on_frames), never decoded
                 if wire.crc_ok(msg_id, frame):
                     foreign += 1
                     if frame_hook is not None:

@@ -49,6 +49,10 @@ class FakeLink:
         (test_wire, and test_unneeded_types_are_not_decoded below)."""
         self.handlers.setdefault(msg_type, []).append(handler)
 
+    def on_frames(self, hook, needed=None):
+        """Raw frames are MavlinkLink's (test_link_partner); this link hands out messages only."""
+        self.frame_hook = (hook, needed)
+
     def send(self, msg):
         with self._lock:
             data = msg.pack(self.mav)

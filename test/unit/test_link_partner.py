@@ -89,7 +89,7 @@ def test_a_link_with_a_peer_follows_only_the_peer_and_does_not_decode_other_syst
     try:
         heard, raw = [], []
         link.on('HEARTBEAT', heard.append)
-        link.on_frame = raw.append
+        link.on_frames(raw.append)
         link.handle_datagram(heartbeat(42), FLOODER)  # another system: not decoded, not followed
         assert link.remote == ('127.0.0.1', 14580) and not heard and len(raw) == 1
         assert link.stats['other_system'] == 1

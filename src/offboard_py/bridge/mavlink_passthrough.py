@@ -62,8 +62,7 @@ class MavlinkPassthrough:
         self.bridge = bridge
         self.pub = bridge.publisher('mavlink/from', Mavlink, queue_size=100)
         self.sub = bridge.subscriber('mavlink/to', Mavlink, self._to_fcu)
-        bridge.link.on_frame = self._from_fcu
-        bridge.link.on_frame_needed = bridge.listened(self.pub)
+        bridge.link.on_frames(self._from_fcu, needed=bridge.listened(self.pub))
 
     def _from_fcu(self, frame):
         self.pub.publish(frame_to_msg(frame, self.bridge.now()))
