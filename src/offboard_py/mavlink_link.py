@@ -247,9 +247,9 @@ class MavlinkLink:
         """Several messages in as few datagrams of at most max_datagram bytes as they fit.
 
         PX4 sends each message in its own datagram (send_start/send_finish per message).
-        Batching is ours, for cost: on the development machine a sendto on loopback costs the
-        sender about 80 us and the receiver's wake-up about 50 us, whatever the size. Every
-        UDP MAVLink parser we know of (mavconn, pymavlink, MAVSDK, QGroundControl) takes
+        Batching is ours, for cost: what a datagram costs (the sendto, and the receiver's
+        wake-up with its Python running cold) hardly depends on its size (README, "Benchmark").
+        Every UDP MAVLink parser we know of (mavconn, pymavlink, MAVSDK, QGroundControl) takes
         several frames from one datagram, so what a client decodes is the same."""
         if self.remote is None:
             return False
