@@ -244,3 +244,30 @@ def test_altitude_is_never_nan_and_home_is_set_again_at_arming():
         assert all(math.isfinite(v) for v in values), values
     assert altitude.altitude_relative == pytest.approx(1.83, abs=0.15), 'above home, which is 0.17 m above the origin'
     assert altitude.altitude_local == pytest.approx(2.0, abs=0.15)
+
+
+def test_cycles_of_one_wake_up_each_run_at_their_own_time():
+    """SimulatedPx4.run() runs the cycles of one wake-up back to back (--steps-per-datagram): each
+    must step the flight stack at its own slot on the schedule, not at the wake-up's time, or the
+    timers and the navigator's trajectory (dt = now - last) move in jumps of a whole wake-up."""
+    from offboard_py.sim.autopilot import SimulatedPx4
+
+    class StoppedClock:
+        speed = 1.0
+
+        def __call__(self):
+            return 500.0
+
+    sim = SimulatedPx4(local_port=0, remote_port=9, gcs=False, clock=StoppedClock())
+    try:
+        stepped = []
+        flight_step = sim.flight.step
+        sim.flight.step = lambda now_s, dt: stepped.append(now_s) or flight_step(now_s, dt)
+        out = {}
+        sim.step(0.01, 7.00, out)
+        sim.step(0.01, 7.01, out)  # the same wake-up: the clock has not moved
+        assert stepped == [7.00, 7.01]
+        attitude_ms = [m.message().time_boot_ms for m in out[sim.link] if m.get_type() == 'ATTITUDE']
+        assert attitude_ms == [7000, 7010]
+    finally:
+        sim.close_links()

@@ -390,12 +390,13 @@ class SimulatedPx4:
                 self._broadcast(self.mav.mission_item_reached_encode(event.seq))
 
     def step(self, dt, slot_s=None, out=None):
-        """One cycle of the loop. The streams due at `slot_s` (the cycle's time on the loop's
-        schedule, seconds since boot; default: now) are built for that time and appended to
-        out[link] to go out with the rest of the wake-up's cycles, or sent at once when `out` is
-        None. What the flight stack says (modes, texts, mission progress) goes out at once."""
-        now = self.t()
-        slot_s = now if slot_s is None else slot_s
+        """One cycle of the loop at `slot_s` (the cycle's time on the loop's schedule, seconds
+        since boot; default: now): the flight stack's timers, the streams due then and their
+        values are that time's, also when one wake-up runs several cycles. The streams are
+        appended to out[link] to go out with the rest of the wake-up's cycles, or sent at once
+        when `out` is None. What the flight stack says (modes, texts, mission progress) goes out
+        at once."""
+        now = self.t() if slot_s is None else slot_s
         self.flight.step(now, dt)
         self.transfer.tick(now)
         self._say_events()
@@ -403,7 +404,7 @@ class SimulatedPx4:
             self._send_param_lists()
         status, built = None, {}
         for link, streams in self.streams.items():
-            due = streams.due(slot_s)
+            due = streams.due(now)
             if not due:
                 continue
             msgs = [] if out is None else out.setdefault(link, [])
@@ -411,7 +412,7 @@ class SimulatedPx4:
                 if name not in built:  # one message per step for all the links that want it
                     if status is None:
                         status = self.flight.status(now)
-                    built[name] = self.telemetry.build(name, status, slot_s)
+                    built[name] = self.telemetry.build(name, status, now)
                 if built[name] is not None:
                     msgs.append(built[name])
             if out is None and msgs:
