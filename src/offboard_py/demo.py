@@ -18,7 +18,7 @@ import sys
 import threading
 import time
 
-from offboard_py.master import MasterTimeout, wait_for_master
+from offboard_py.master import MasterTimeout, master_online, wait_for_master
 from offboard_py.phases import PhaseWatcher
 from offboard_py.simclock import SimClock, SpeedError, parse_speed
 
@@ -181,13 +181,12 @@ def main(argv=None):
     interrupted = []
     signal.signal(signal.SIGINT, lambda *_: interrupted.append(True))
     try:
-        import rosgraph
         import rospy
         from geometry_msgs.msg import PoseStamped
         from mavros_msgs.msg import State
 
         def master_up_or_no_point_waiting():
-            return rosgraph.is_master_online() or launch.poll() is not None or bool(interrupted)
+            return master_online() or launch.poll() is not None or bool(interrupted)
         try:  # roslaunch starts the master: no "is roscore running?" while it does
             wait_for_master('takeoff_demo', MASTER_TIMEOUT_S, is_online=master_up_or_no_point_waiting,
                             say=lambda text: None)

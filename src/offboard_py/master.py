@@ -35,7 +35,18 @@ def master_timeout_from_argv(argv):
     return 0.0
 
 
-def wait_for_master(node_name, timeout_s=0.0, is_online=rosgraph.is_master_online, say=None,
+def master_online():
+    """True if the master answers. rosgraph.is_master_online() would do, but its bare `except:`
+    also swallows the KeyboardInterrupt of a Ctrl-C that lands during the call, and the wait
+    then goes on as if nothing had happened."""
+    try:
+        rosgraph.Master('/offboard_py_master_wait').getPid()
+    except Exception:  # refused, timed out, an error answer: not online (yet)
+        return False
+    return True
+
+
+def wait_for_master(node_name, timeout_s=0.0, is_online=master_online, say=None,
                     clock=time.monotonic, sleep=time.sleep):
     """Return once the master answers; raise MasterTimeout after timeout_s (0: never)."""
     if is_online():

@@ -50,3 +50,23 @@ def test_bad_timeout_argument_is_named(text):
     with pytest.raises(ValueError) as err:
         master_timeout_from_argv(['_master_timeout:=' + text])
     assert '_master_timeout:=' + text in str(err.value)
+
+
+def test_a_ctrl_c_during_the_check_is_not_swallowed(monkeypatch):
+    """rosgraph.is_master_online() has a bare except: a Ctrl-C landing during its XML-RPC call was
+    taken for 'not online' and the wait went on (a fresh-clone CI run killed the node after 10 s)."""
+    import rosgraph
+
+    from offboard_py.master import master_online
+
+    def interrupted(_self):
+        raise KeyboardInterrupt
+
+    def refused(_self):
+        raise ConnectionRefusedError(111, 'Connection refused')
+
+    monkeypatch.setattr(rosgraph.Master, 'getPid', refused)
+    assert master_online() is False
+    monkeypatch.setattr(rosgraph.Master, 'getPid', interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        master_online()
