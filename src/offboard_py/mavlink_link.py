@@ -235,6 +235,7 @@ class MavlinkLink:
                     frames.append(wire.encode(msg, seq, system_id, component_id))
                 seq = (seq + 1) & 0xFF
             mav.seq = seq
+            self.stats['messages_sent'] += len(frames)
             return frames
 
     def send(self, msg):
@@ -274,6 +275,7 @@ class MavlinkLink:
                 raise
             return False
         self.stats['sent'] += 1
+        self.stats['bytes_sent'] += len(data)
         return True
 
     def receive(self, max_datagrams=256):
@@ -296,6 +298,7 @@ class MavlinkLink:
         library frames what it does not use. With signing on, every frame goes through
         pymavlink's decode: its signature decides whether it counts."""
         self.stats['datagrams'] += 1
+        self.stats['bytes_received'] += len(data)
         if self.lock_remote and sender is not None:
             if not self.partner_locked and not self._lock_partner(sender):
                 self.stats['before_partner'] += 1

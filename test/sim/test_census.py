@@ -80,6 +80,30 @@ def test_onboard_rates_and_fields_as_px4_sitl(start_sim):
     # The same altitude datum (AMSL, mm), sampled at different instants of a noisy estimate (8 Hz vs 50 Hz)
     gps_alt, global_alt = latest['GPS_RAW_INT'].alt, latest['GLOBAL_POSITION_INT'].alt
     assert abs(gps_alt - global_alt) < 500, 'GPS_RAW_INT.alt %d mm, GLOBAL_POSITION_INT.alt %d mm' % (gps_alt, global_alt)
+    link_status_as_px4s(client, t0, client.now())
+    # PX4's navigator has no return-time estimate for a landed vehicle: safe_return 0 (not the 100 s margin)
+    estimate = latest['TIME_ESTIMATE_TO_TARGET']
+    assert (estimate.safe_return, estimate.land, estimate.mission_next_item, estimate.mission_end,
+            estimate.commanded_action) == (0, -1, -1, -1, -1), estimate
+
+
+def link_status_as_px4s(client, t0, t1):
+    """LINK_NODE_STATUS tells what the link sent: its byte rate and message count match what the
+    client received over the same seconds (loopback loses nothing), its timestamp is the boot
+    clock in us (PX4 sends hrt_absolute_time() in this ms-documented field)."""
+    window = [(t, m) for t, m in list(client.history) if t0 <= t <= t1]
+    reports = [(t, m) for t, m in window if m.get_type() == 'LINK_NODE_STATUS']
+    assert len(reports) >= 3, 'LINK_NODE_STATUS: %d in %.1f s' % (len(reports), t1 - t0)
+    (ta, first), (tb, last) = reports[1], reports[-1]
+    between = [m for t, m in window if ta < t <= tb]
+    sent = last.messages_sent - first.messages_sent
+    assert abs(sent - len(between)) <= 0.02 * len(between) + 2, 'messages_sent +%d, client got %d' % (sent, len(between))
+    received_rate = sum(len(m.get_msgbuf()) for m in between) / (tb - ta)
+    assert abs(last.tx_rate - received_rate) <= 0.05 * received_rate, 'tx_rate %d B/s, client got %.0f B/s' % (
+        last.tx_rate, received_rate)
+    boot_ms = next(m.time_boot_ms for t, m in reversed(window) if t <= tb and m.get_type() == 'ATTITUDE')
+    assert abs(last.timestamp / 1000.0 - boot_ms) < 100, 'timestamp %d us, ATTITUDE at %d ms' % (last.timestamp, boot_ms)
+    assert last.messages_lost == 0 and last.rx_parse_err == 0, last
 
 
 def test_two_steps_a_datagram_each_message_at_its_own_step(start_sim):

@@ -79,6 +79,19 @@ def test_message_interval_for_any_message_the_simulator_builds():
     assert streams.interval_us(9999) == 0
 
 
+def test_streams_that_follow_their_data_go_no_faster_than_it():
+    """PX4 sends GPS_RAW_INT on each GPS fix (8 Hz) and TIME_ESTIMATE_TO_TARGET on each of the
+    navigator's estimates (every 2 s) whatever the interval asked; it reports the interval set."""
+    streams = telemetry.Streams(0.0, telemetry.ONBOARD_RATES_HZ)
+    assert streams.set_interval(M.MAVLINK_MSG_ID_TIME_ESTIMATE_TO_TARGET, 100000, 0.0)
+    assert streams.set_interval(M.MAVLINK_MSG_ID_GPS_RAW_INT, 20000, 0.0)
+    assert streams.interval_us(M.MAVLINK_MSG_ID_TIME_ESTIMATE_TO_TARGET) == 100000
+    counts = due_counts(streams, 10.0)
+    assert counts['TIME_ESTIMATE_TO_TARGET'] == 5 and counts['GPS_RAW_INT'] == 80
+    assert streams.set_interval(M.MAVLINK_MSG_ID_GPS_RAW_INT, 500000, 0.0)  # slower than the data: as asked
+    assert due_counts(streams, 10.0)['GPS_RAW_INT'] == 20
+
+
 # -- SYS_STATUS and HEARTBEAT ------------------------------------------------------------------
 
 def test_sys_status_words_are_px4_sitl_s():
@@ -142,13 +155,13 @@ def test_battery_status_message_and_charge_states():
 def test_every_stream_builds_on_the_ground_and_in_the_air():
     f = make(rc=True)  # RC_CHANNELS needs an RC link
     b = builder(f)
-    for name in sorted(telemetry.STREAMABLE | telemetry.ON_REQUEST):
+    for name in sorted((telemetry.STREAMABLE | telemetry.ON_REQUEST) - telemetry.PER_LINK):
         assert b.build(name, f.status(1.0), 1.0) is not None, name
     f.on_offboard_setpoint(hover_setpoint(), 0.0)
     f.request_mode('OFFBOARD', 0.0)
     f.request_arming(True, False, 0.0)
     t = fly(f, 0.0, 12.0, hover_setpoint())
-    for name in sorted(telemetry.STREAMABLE):
+    for name in sorted(telemetry.STREAMABLE - telemetry.PER_LINK):
         assert b.build(name, f.status(t), t) is not None, name
 
 
@@ -271,3 +284,66 @@ def test_cycles_of_one_wake_up_each_run_at_their_own_time():
         assert attitude_ms == [7000, 7010]
     finally:
         sim.close_links()
+
+
+# -- TIME_ESTIMATE_TO_TARGET and LINK_NODE_STATUS ------------------------------------------------
+
+def test_rtl_time_estimate_is_px4s():
+    """navigator's RtlDirect::calc_rtl_time_estimate for a multicopter with PX4 SITL's parameters
+    (RTL_RETURN_ALT 30, RTL_DESCEND_ALT 10, RTL_CONE_ANG 45, MPC_Z_V_AUTO_UP 3, MPC_Z_V_AUTO_DN 1.5,
+    MPC_XY_CRUISE 5), worked out by hand from PX4's formula."""
+    from offboard_py.sim.navigator import rtl_time_estimate
+    p = ParamStore({})
+    home = (0.0, 0.0, 0.0)
+    assert rtl_time_estimate(p, (0.0, 0.0, 0.0), home, landed=True) is None
+    # 2 m over home: inside the cone no climb, no descent to 10 m, land 2 m at 1.5 m/s
+    assert rtl_time_estimate(p, (0.0, 0.0, -2.0), home, landed=False) == pytest.approx(2 / 1.5)
+    # 100 m out at 20 m: climb 10 m, fly 100 m, descend 30 -> 10 m, land 10 m
+    assert rtl_time_estimate(p, (100.0, 0.0, -20.0), home, landed=False) == pytest.approx(10 / 3 + 20 + 20 / 1.5 + 10 / 1.5)
+    # above the return altitude: it returns there, then descends to 10 m and lands
+    assert rtl_time_estimate(p, (0.0, 50.0, -40.0), home, landed=False) == pytest.approx(10 + 30 / 1.5 + 10 / 1.5)
+    # while AUTO.RTL flies, from its phase: landing from 5 m, or flying home at the return altitude
+    assert rtl_time_estimate(p, (0.0, 0.0, -5.0), home, False, ('land', -30.0)) == pytest.approx(5 / 1.5)
+    assert rtl_time_estimate(p, (50.0, 0.0, -30.0), home, False, ('return', -30.0)) == pytest.approx(10 + 20 / 1.5 + 10 / 1.5)
+    # a negative RTL_LAND_DELAY waits for good: the landing is not counted
+    p.set('RTL_LAND_DELAY', -1.0)
+    assert rtl_time_estimate(p, (100.0, 0.0, -20.0), home, landed=False) == pytest.approx(10 / 3 + 20 + 20 / 1.5)
+
+
+def test_time_estimate_to_target_on_the_ground_and_in_hover():
+    """PX4: safe_return = RTL_TIME_FACTOR x estimate + RTL_TIME_MARGIN (1.1, 100 s), 0 without an
+    estimate (landed); the other fields -1 (not estimated)."""
+    f = make()
+    b = builder(f)
+    msg = b.build('TIME_ESTIMATE_TO_TARGET', f.status(1.0), 1.0)
+    assert (msg.safe_return, msg.land, msg.mission_next_item, msg.mission_end, msg.commanded_action) == (0, -1, -1, -1, -1)
+    f.on_offboard_setpoint(hover_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = fly(f, 0.0, 15.0, hover_setpoint())
+    st = f.status(t)
+    height = st.home[2] - st.position[2]
+    assert 1.6 < height < 2.0  # the setpoint is 2 m above the origin, home 0.17 m above it
+    assert b.build('TIME_ESTIMATE_TO_TARGET', st, t).safe_return == int(1.1 * height / 1.5 + 100)
+
+
+class _Stats(dict):
+    def __missing__(self, key):
+        return 0
+
+
+def test_link_node_status_is_the_links_own_as_px4_fills_it():
+    stats = _Stats()
+    counters = telemetry.LinkCounters(stats, 10.0)
+    b = builder(make())
+    stats.update(bytes_sent=24000, bytes_received=900, messages_sent=400, received=30, other_system=2,
+                 dropped=3, bad_frames=70000)
+    msg = b.link_node_status(counters, 10.5)  # less than a second since the window began: no rate yet
+    assert (msg.tx_rate, msg.rx_rate) == (0, 0)
+    assert msg.timestamp == 10500000, 'us since boot, as PX4 sends hrt_absolute_time()'
+    msg = b.link_node_status(counters, 12.0)
+    assert (msg.tx_rate, msg.rx_rate) == (12000, 450)
+    assert (msg.messages_sent, msg.messages_received, msg.messages_lost) == (400, 32, 3)
+    assert msg.rx_parse_err == 70000 & 0xFFFF and (msg.tx_buf, msg.rx_buf, msg.tx_overflows, msg.rx_overflows) == (0, 0, 0, 0)
+    stats.update(bytes_sent=36000)
+    assert b.link_node_status(counters, 13.0).tx_rate == 12000  # the next whole second

@@ -89,6 +89,7 @@ class SimulatedPx4:
         if self.gcs_link:
             self.streams[self.gcs_link] = telemetry.Streams(self.t(now), telemetry.GCS_RATES_HZ)
         self.telemetry = telemetry.TelemetryBuilder(self.mav, self.frame, self.params)
+        self.link_counters = {link: telemetry.LinkCounters(link.stats, self.t(now)) for link in self.links}
         self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
@@ -257,11 +258,17 @@ class SimulatedPx4:
         """PX4 answers DENIED for what it cannot send (an unknown id, home before there is one)."""
         msg_id = REQUESTED_BY_COMMAND.get(msg.command, msg.param1)
         name = telemetry.NAMES_BY_ID.get(int(msg_id)) if math.isfinite(msg_id) else None
-        reply = self.telemetry.build(name, self.flight.status(now), now) if name else None
+        reply = self._build(name, self.reply_link, now) if name else None
         if reply is None:
             return DENIED
         self._reply(reply)
         return ACCEPTED
+
+    def _build(self, name, link, now, status=None):
+        """The message `name` as `link` sends it now (None: nothing to say)."""
+        if name in telemetry.PER_LINK:
+            return self.telemetry.link_node_status(self.link_counters[link], now)
+        return self.telemetry.build(name, self.flight.status(now) if status is None else status, now)
 
     def _cmd_inject_failure(self, msg, now):
         if not self.params['SYS_FAILURE_EN']:
@@ -409,6 +416,9 @@ class SimulatedPx4:
                 continue
             msgs = [] if out is None else out.setdefault(link, [])
             for name in due:
+                if name in telemetry.PER_LINK:
+                    msgs.append(self._build(name, link, now))
+                    continue
                 if name not in built:  # one message per step for all the links that want it
                     if status is None:
                         status = self.flight.status(now)

@@ -78,6 +78,7 @@ class Status(NamedTuple):
     battery_voltage: float        # V
     home: tuple = (0.0, 0.0, 0.0)  # local NED of home, m: where the vehicle was armed (or booted)
     rc: bool = False               # an RC link is simulated (sticks centred)
+    rtl: tuple = None              # while AUTO.RTL flies: (its phase, the return altitude as local z)
 
     @property
     def custom_mode(self):
@@ -234,8 +235,10 @@ class Flight:
             yaw_rate_sp = float('nan') if sp.yaw == sp.yaw else v.yaw_rate
         thrust = v.collective_thrust() if c.armed else 0.0
         position, velocity = v.estimate
+        nav = self.navigator
+        rtl = (nav.rtl_phase, nav.rtl_down) if c.nav_mode == 'AUTO.RTL' else None
         return Status(c.nav_mode, c.user_mode, c.armed, c.failsafe, c.system_status(now_s), c.ready(now_s),
                       c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
-                      self.home, c.rc)
+                      self.home, c.rc, rtl)

@@ -72,6 +72,42 @@ def rtl_return_height(params, distance):
     return max(height, 2.0 * acceptance)
 
 
+def rtl_time_estimate(params, position, home, landed, rtl=None):
+    """PX4's estimate of the time a direct return home (RTL_TYPE 0, multicopter) takes from
+    `position` (local NED), in s, or None when PX4 has none (landed: PX4's RTL starts idle; its
+    estimate is then invalid). `rtl`: (phase, return altitude as local z) while AUTO.RTL flies,
+    whose phase the estimate starts from; else it starts where PX4's RTL would: climbing when
+    below the return altitude, else flying home. Climbs at MPC_Z_V_AUTO_UP, flies at
+    MPC_XY_CRUISE, descends to RTL_DESCEND_ALT (or the return altitude, if lower), waits
+    RTL_LAND_DELAY (a negative delay waits for good, and the landing is not counted), lands at
+    MPC_Z_V_AUTO_DN (navigator's RtlDirect::calc_rtl_time_estimate with lib/rtl's estimator)."""
+    if landed:
+        return None
+    height = home[2] - position[2]
+    distance = math.hypot(position[0] - home[0], position[1] - home[1])
+    if rtl is None:
+        phase = None
+        return_height = max(height, rtl_return_height(params, distance))
+    else:
+        phase, return_down = rtl
+        return_height = home[2] - return_down
+    down_speed = params['MPC_Z_V_AUTO_DN']
+    loiter_height = min(params['RTL_DESCEND_ALT'], return_height)
+    time_s = 0.0
+    if phase in (None, 'climb'):
+        time_s += max(0.0, return_height - height) / params['MPC_Z_V_AUTO_UP']
+        height = max(height, return_height)
+    if phase in (None, 'climb', 'return'):
+        time_s += distance / params['MPC_XY_CRUISE']
+    if phase in (None, 'climb', 'return', 'descend'):
+        time_s += max(0.0, height - loiter_height) / down_speed
+        height = min(height, loiter_height)
+        if params['RTL_LAND_DELAY'] < 0:
+            return time_s
+        time_s += params['RTL_LAND_DELAY']
+    return time_s + max(0.0, height) / down_speed
+
+
 class Flyer:
     """What AUTO modes share: the trajectory towards a target, restarted from the vehicle's own
     state whenever the flight stops following it (a direct setpoint came in between)."""

@@ -9,14 +9,15 @@ FAILED).
 `TelemetryBuilder.build(name, status, now_s)` makes each message from the flight's read-only
 Status (sim.flight); it never sees the commander or the vehicle model. What several messages
 share (global position, Euler angles) is computed once per Status, i.e. once per step.
-Not sent (pymavlink's dialect lacks them): LINK_NODE_STATUS, TIME_ESTIMATE_TO_TARGET and
-PX4's EVENT / CURRENT_EVENT_SEQUENCE.
+LINK_NODE_STATUS is each link's own (`link_node_status`, from its counters). Not sent: PX4's
+EVENT / CURRENT_EVENT_SEQUENCE (their events are PX4's own metadata; the issue leaves them out).
 """
 
 import math
 import time
 
 from offboard_py.dialect import mavlink
+from offboard_py.sim.navigator import rtl_time_estimate
 from offboard_py.sim.vehicle import quaternion_from_thrust
 
 # PX4's MAVLINK_MODE_ONBOARD (mavlink_main.cpp) at the rates PX4 SITL sends on its onboard link
@@ -47,10 +48,12 @@ ONBOARD_RATES_HZ = {
     'SCALED_PRESSURE': 1.0,
     'OPEN_DRONE_ID_LOCATION': 1.0,
     'OPEN_DRONE_ID_SYSTEM': 1.0,
+    'LINK_NODE_STATUS': 1.0,
     'HOME_POSITION': 0.5,
     'BATTERY_STATUS': 0.5,
     'VIBRATION': 0.5,
     'CURRENT_MODE': 0.5,
+    'TIME_ESTIMATE_TO_TARGET': 0.5,  # configured at 1 Hz, sent on each of the navigator's 2 s updates
     'RC_CHANNELS': 20.0,  # only with an RC link (sim_px4.py --rc): PX4 sends it when input_rc updates
 }
 # PX4's MAVLINK_MODE_NORMAL (mavlink_main.cpp, configure_streams_to_default), the streams of it
@@ -73,9 +76,11 @@ GCS_RATES_HZ = {
     'SERVO_OUTPUT_RAW': 1.0,
     'OPEN_DRONE_ID_LOCATION': 1.0,
     'OPEN_DRONE_ID_SYSTEM': 1.0,
+    'LINK_NODE_STATUS': 1.0,
     'HOME_POSITION': 0.5,
     'BATTERY_STATUS': 0.5,
     'CURRENT_MODE': 0.5,
+    'TIME_ESTIMATE_TO_TARGET': 0.5,
     'DISTANCE_SENSOR': 0.5,
     'ESTIMATOR_STATUS': 0.5,
     'PING': 0.1,
@@ -83,6 +88,11 @@ GCS_RATES_HZ = {
     'RC_CHANNELS': 5.0,
 }
 FIXED_RATE = frozenset(('HEARTBEAT',))
+# Streams PX4 sends only when their data updates, so no interval makes them faster than this (s)
+UPDATE_PERIOD_S = {'GPS_RAW_INT': 1.0 / 8.0,              # the simulated GPS: 8 Hz
+                   'TIME_ESTIMATE_TO_TARGET': 2.0}        # navigator: rtl_time_estimate every 2 s
+# Messages of one link's own state, built for each link that sends them
+PER_LINK = frozenset(('LINK_NODE_STATUS',))
 # One-shot messages that MAV_CMD_REQUEST_MESSAGE can ask for besides the streams
 ON_REQUEST = frozenset(('AUTOPILOT_VERSION',))
 # Every message the builder makes: what SET_MESSAGE_INTERVAL and REQUEST_MESSAGE accept
@@ -154,8 +164,14 @@ class Streams:
     def __init__(self, now_s, rates_hz=ONBOARD_RATES_HZ):
         self.defaults_s = {name: 1.0 / hz for name, hz in rates_hz.items()}
         self.names_by_id = NAMES_BY_ID
-        self.interval_s = dict(self.defaults_s)
+        self.interval_s = dict(self.defaults_s)  # as set (what MESSAGE_INTERVAL reports)
+        self.period_s = {name: self._period(name, s) for name, s in self.interval_s.items()}  # as sent
         self.next_s = {name: now_s for name in self.interval_s}
+
+    @staticmethod
+    def _period(name, interval_s):
+        """How often a stream goes out at an interval: no faster than its data updates."""
+        return max(interval_s, UPDATE_PERIOD_S.get(name, 0.0))
 
     def set_interval(self, msg_id, interval_us, now_s):
         """Apply SET_MESSAGE_INTERVAL; True when accepted."""
@@ -170,8 +186,10 @@ class Streams:
             interval = interval_us * 1e-6
         if interval is None:
             self.interval_s.pop(name, None)
+            self.period_s.pop(name, None)
         else:
             self.interval_s[name] = interval
+            self.period_s[name] = self._period(name, interval)
             self.next_s[name] = now_s
         return True
 
@@ -187,7 +205,7 @@ class Streams:
         """Names of the streams to send now; their next times move on."""
         out = []
         next_s = self.next_s
-        for name, interval in self.interval_s.items():
+        for name, interval in self.period_s.items():
             if now_s >= next_s[name]:
                 out.append(name)
                 # keep the cadence, but never queue a burst after a stall
@@ -469,6 +487,27 @@ class TelemetryBuilder:
         """A TIMESYNC request (tc1 0) on the boot clock, as PX4 sends them at 10 Hz."""
         return self.mav.timesync_encode(0, int((now_s - self.boot_s) * 1e9))
 
+    def _time_estimate_to_target(self, st, now_s):
+        """PX4's stream: the RTL estimate with its margin (RTL_TIME_FACTOR x t + RTL_TIME_MARGIN, s),
+        0 while PX4 has no estimate (landed, no home yet); PX4 estimates nothing else (-1)."""
+        p = self.params
+        t = None
+        if st.ready:
+            t = rtl_time_estimate(p, st.position, st.home, st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND,
+                                  st.rtl)
+        safe = 0 if t is None else int(t * p['RTL_TIME_FACTOR'] + p['RTL_TIME_MARGIN'])
+        return self.mav.time_estimate_to_target_encode(safe, -1, -1, -1, -1)
+
+    def link_node_status(self, counters, now_s):
+        """A link's LINK_NODE_STATUS from its LinkCounters, as PX4 fills it: timestamp in us since
+        boot (the XML says ms; PX4 sends hrt_absolute_time()), buffers 0 (PX4: "TODO"), rates in
+        bytes/s over the last whole second, parse errors, messages sent, received and lost."""
+        c = counters.update(now_s)
+        return self.mav.link_node_status_encode(
+            self.time_usec(now_s), 0, 0, int(counters.tx_rate), int(counters.rx_rate), c['bad_frames'] & 0xFFFF,
+            0, 0, c['messages_sent'] & 0xFFFFFFFF, (c['received'] + c['other_system']) & 0xFFFFFFFF,
+            c['dropped'] & 0xFFFFFFFF)
+
     def _ping(self, st, now_s):
         self.ping_seq = (self.ping_seq + 1) & 0xFFFFFFFF
         return self.mav.ping_encode(self.time_usec(now_s), self.ping_seq, 0, 0)
@@ -505,3 +544,26 @@ class TelemetryBuilder:
 
     def statustext(self, severity, text):
         return self.mav.statustext_encode(severity, text.encode('ascii', 'replace')[:50])
+
+
+class LinkCounters:
+    """A link's byte rates as PX4's mavlink module keeps them (telemetry_status tx/rx_rate_avg): the
+    bytes of a window of (about) a second over its length, a new window each time. PX4's main loop
+    closes a window every second whoever reads it; here the window closes when the rates are read
+    at least WINDOW_S after it opened (a 1 Hz LINK_NODE_STATUS reads them once a window)."""
+
+    WINDOW_S = 0.999  # a second, less the float error of a 1 Hz stream's slot times
+
+    def __init__(self, stats, now_s):
+        self.stats = stats  # the link's Counter (MavlinkLink.stats)
+        self.tx_rate = self.rx_rate = 0.0
+        self._since_s, self._tx, self._rx = now_s, 0, 0
+
+    def update(self, now_s):
+        """The link's counters, the rates brought up to date first."""
+        stats, dt = self.stats, now_s - self._since_s
+        if dt >= self.WINDOW_S:
+            tx, rx = stats['bytes_sent'], stats['bytes_received']
+            self.tx_rate, self.rx_rate = (tx - self._tx) / dt, (rx - self._rx) / dt
+            self._since_s, self._tx, self._rx = now_s, tx, rx
+        return stats
