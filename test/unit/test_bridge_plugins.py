@@ -338,6 +338,31 @@ def test_ack_for_another_command_does_not_answer():
     assert (response.success, response.result) == (False, mavlink.MAV_RESULT_FAILED)
 
 
+def test_an_ack_nobody_waits_for_is_logged_as_mavros_does_at_most_every_10_s(monkeypatch):
+    """mavros's cmd plugin: ROS_WARN_THROTTLE(10, "CMD: Unexpected command %u, result %u"), as it
+    logs for PX4's ACK of the AUTOPILOT_VERSION request (520) sent on connection."""
+    warnings = []
+    monkeypatch.setattr(command.rospy, 'logwarn', lambda fmt, *args: warnings.append(fmt % args))
+    now = [100.0]
+    waiter = command.CommandWaiter(clock=lambda: now[0])
+    ack = mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0)
+    waiter.on_ack(ack)
+    now[0] += 9.0
+    waiter.on_ack(ack)
+    assert warnings == ['CMD: Unexpected command 520, result 0'] and waiter.unexpected == 2
+    now[0] += 1.0
+    waiter.on_ack(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_NAV_LAND, 4))
+    assert warnings[1:] == ['CMD: Unexpected command 21, result 4']
+    # mavros's home_position plugin asks through cmd/command and waits: its ACK is expected there
+    now[0] += 20.0
+    waiter.on_ack(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_GET_HOME_POSITION, 0))
+    assert len(warnings) == 2
+    # an ACK that answers a waiting command is not unexpected
+    entry = waiter.begin(mavlink.MAV_CMD_NAV_LAND)
+    waiter.on_ack(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_NAV_LAND, 0))
+    assert entry[0].is_set() and entry[1] == 0 and waiter.unexpected == 3
+
+
 def test_takeoff_carries_position_and_yaw():
     rig = Rig(command.Command)
     rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED)

@@ -10,10 +10,13 @@ service call, as in mavros. Different commands may wait at once. As in mavros 1.
 - cmd/command_int sends COMMAND_INT and waits for nothing (success=true once sent);
 - set_message_interval sends MAV_CMD_SET_MESSAGE_INTERVAL (rate > 0: 1e6/rate us, 0: the
   default rate, < 0: off) and succeeds when the FCU answered (its result is in the log);
-- set_stream_rate sends the old REQUEST_DATA_STREAM (PX4 ignores it) and answers nothing.
+- set_stream_rate sends the old REQUEST_DATA_STREAM (PX4 ignores it) and answers nothing;
+- a COMMAND_ACK nobody waits for is logged, at most every 10 s ("CMD: Unexpected command 520,
+  result 0" once PX4 answers the AUTOPILOT_VERSION request sys_status sends on connection).
 """
 
 import threading
+import time
 
 import rospy
 from mavros_msgs.srv import (CommandBool, CommandBoolResponse, CommandInt, CommandIntResponse, CommandLong,
@@ -29,12 +32,21 @@ class Busy(Exception):
     """The same command is already waiting for its COMMAND_ACK."""
 
 
+UNEXPECTED_LOG_PERIOD_S = 10.0  # mavros: ROS_WARN_THROTTLE_NAMED(10, "cmd", "CMD: Unexpected command ...")
+# Commands another plugin sends itself whose ACK mavros expects: its home_position plugin asks through
+# cmd/command and waits, so that ACK is never "unexpected" there
+ACKED_ELSEWHERE = frozenset((mavlink.MAV_CMD_GET_HOME_POSITION,))
+
+
 class CommandWaiter:
     """COMMAND_LONG requests waiting for their COMMAND_ACK, at most one per command id."""
 
-    def __init__(self):
+    def __init__(self, clock=time.monotonic):
         self._lock = threading.Lock()
         self._pending = {}  # command -> [event, result]
+        self._clock = clock
+        self.unexpected = 0  # ACKs for no waiting command
+        self._logged_s = None
 
     def begin(self, cmd):
         with self._lock:
@@ -51,7 +63,15 @@ class CommandWaiter:
     def on_ack(self, msg):
         with self._lock:
             entry = self._pending.get(msg.command)
-            if entry is not None and not entry[0].is_set():
+            if entry is None:
+                if msg.command in ACKED_ELSEWHERE:
+                    return
+                self.unexpected += 1
+                now_s = self._clock()
+                if self._logged_s is None or now_s - self._logged_s >= UNEXPECTED_LOG_PERIOD_S:
+                    self._logged_s = now_s
+                    rospy.logwarn('CMD: Unexpected command %d, result %d', msg.command, msg.result)
+            elif not entry[0].is_set():
                 entry[1] = msg.result
                 entry[0].set()
 
