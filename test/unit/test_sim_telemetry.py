@@ -305,6 +305,11 @@ def test_rtl_time_estimate_is_px4s():
     # while AUTO.RTL flies, from its phase: landing from 5 m, or flying home at the return altitude
     assert rtl_time_estimate(p, (0.0, 0.0, -5.0), home, False, ('land', -30.0)) == pytest.approx(5 / 1.5)
     assert rtl_time_estimate(p, (50.0, 0.0, -30.0), home, False, ('return', -30.0)) == pytest.approx(10 + 20 / 1.5 + 10 / 1.5)
+    # PX4's ranges for what the estimate reads
+    from offboard_py.sim.params import ParamRejected
+    for name, value in (('RTL_TIME_FACTOR', 2.5), ('RTL_TIME_MARGIN', 301), ('RTL_LAND_DELAY', -2.0)):
+        with pytest.raises(ParamRejected):
+            p.set(name, value)
     # a negative RTL_LAND_DELAY waits for good: the landing is not counted
     p.set('RTL_LAND_DELAY', -1.0)
     assert rtl_time_estimate(p, (100.0, 0.0, -20.0), home, landed=False) == pytest.approx(10 / 3 + 20 + 20 / 1.5)

@@ -86,6 +86,10 @@ RANGES = {
     'MPC_THR_MIN': (0.05, 1.0),
     'MPC_THR_MAX': (0.0, 1.0),
     'RTL_CONE_ANG': (0, 90),
+    # the RTL time estimate (TIME_ESTIMATE_TO_TARGET)
+    'RTL_LAND_DELAY': (-1.0, 300.0),
+    'RTL_TIME_FACTOR': (1.0, 2.0),
+    'RTL_TIME_MARGIN': (0, 300),
 }
 
 
