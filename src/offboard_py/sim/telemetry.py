@@ -357,11 +357,11 @@ class TelemetryBuilder:
 
     def _attitude(self, st, now_s):
         roll, pitch, yaw = self._euler(st)
-        return self.mav.attitude_encode(self.time_boot_ms(now_s), roll, pitch, yaw, 0.0, 0.0, st.yaw_rate)
+        return self.mav.attitude_encode(self.time_boot_ms(now_s), roll, pitch, yaw, *st.body_rates)
 
     def _attitude_quaternion(self, st, now_s):
         w, x, y, z = st.attitude
-        return self.mav.attitude_quaternion_encode(self.time_boot_ms(now_s), w, x, y, z, 0.0, 0.0, st.yaw_rate,
+        return self.mav.attitude_quaternion_encode(self.time_boot_ms(now_s), w, x, y, z, *st.body_rates,
                                                    [0.0, 0.0, 0.0, 0.0])
 
     def _local_position_ned(self, st, now_s):
@@ -371,7 +371,7 @@ class TelemetryBuilder:
         # same clock and values as LOCAL_POSITION_NED and ATTITUDE_QUATERNION
         return self.mav.odometry_encode(
             self.time_usec(now_s), mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_BODY_FRD, *st.position,
-            list(st.attitude), *to_body(st.attitude, st.velocity), 0.0, 0.0, st.yaw_rate,
+            list(st.attitude), *to_body(st.attitude, st.velocity), *st.body_rates,
             POSE_COVARIANCE, VELOCITY_COVARIANCE, 0, mavlink.MAV_ESTIMATOR_TYPE_GPS_INS, 100)
 
     def _global_position_int(self, st, now_s):
@@ -434,7 +434,7 @@ class TelemetryBuilder:
         c, s = math.cos(st.yaw), math.sin(st.yaw)
         mag_n, mag_d = 0.21, 0.43  # gauss, roughly central Europe
         alt = self._amsl(st)
-        return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, 0.0, 0.0, st.yaw_rate,
+        return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, *st.body_rates,
                                            c * mag_n, -s * mag_n, mag_d, pressure_hpa(alt), 0.0, alt, TEMPERATURE_C,
                                            HIGHRES_IMU_ALL_FIELDS)
 

@@ -75,6 +75,19 @@ def _is(value):
     return value == value  # not NaN
 
 
+def body_rates(q0, q1, dt):
+    """The body (FRD) angular velocity, rad/s, that turns attitude q0 into q1 (w, x, y, z) in dt s:
+    2 x the vector part of q0^-1 q1 over dt, the shorter way round."""
+    w0, x0, y0, z0 = q0
+    w1, x1, y1, z1 = q1
+    if dt <= 0.0:
+        return (0.0, 0.0, 0.0)
+    scale = (2.0 if w0 * w1 + x0 * x1 + y0 * y1 + z0 * z1 >= 0.0 else -2.0) / dt
+    return (scale * (w0 * x1 - x0 * w1 - y0 * z1 + z0 * y1),
+            scale * (w0 * y1 + x0 * z1 - y0 * w1 - z0 * x1),
+            scale * (w0 * z1 - x0 * y1 + y0 * x1 - z0 * w1))
+
+
 def quaternion_from_thrust(acc_ned, yaw):
     """Attitude (w, x, y, z), NED/FRD, that points the thrust to give `acc_ned` with heading yaw."""
     fx, fy, fz = acc_ned[0], acc_ned[1], acc_ned[2] - GRAVITY
@@ -148,6 +161,7 @@ class Vehicle:
         self.thrust = [0.0, 0.0, 0.0]         # normalised thrust vector (NED), as the rotors give it
         self.yaw = yaw
         self.yaw_rate = 0.0
+        self.body_rates = (0.0, 0.0, 0.0)  # FRD, rad/s: what a gyro reads (see step)
         self.motors_on = False
         self.motors_on_s = None
         self.takeoff_state = 'disarmed'  # PX4's TakeoffHandling: disarmed, spoolup, ready, rampup, flight
@@ -301,6 +315,7 @@ class Vehicle:
     def step(self, dt, sp, now_s):
         """Advance the model by dt seconds, flying setpoint `sp` when the motors allow."""
         p = self.params
+        attitude_before = self.attitude()
         climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
         if self.motors_on:
             self._update_takeoff(sp, now_s, dt, climb_speed)
@@ -338,6 +353,13 @@ class Vehicle:
         self.estimate = self.estimator.measure(self.position, self.velocity)
         self._land_detector(sp, now_s)
         self._attitude = None
+        # the gyro: the turn from the last attitude to this one, within PX4's rate limits (the
+        # thrust here follows its setpoint with a lag, not PX4's rate-limited attitude loop, so
+        # a setpoint step would otherwise read up to 7 rad/s for a step or two)
+        rates = body_rates(attitude_before, self.attitude(), dt)
+        roll_max, pitch_max = math.radians(p['MC_ROLLRATE_MAX']), math.radians(p['MC_PITCHRATE_MAX'])
+        self.body_rates = (_clamp(rates[0], -roll_max, roll_max), _clamp(rates[1], -pitch_max, pitch_max),
+                           _clamp(rates[2], -YAW_RATE_MAX, YAW_RATE_MAX))
 
     def _ground(self, now_s):
         gz = self.ground_z
