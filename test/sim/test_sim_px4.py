@@ -134,6 +134,12 @@ def test_offboard_takeoff_to_2m_and_hold(start_sim):
     assert ext.landed_state == mavlink.MAV_LANDED_STATE_IN_AIR, 'IN_AIR'
     assert client.latest['HEARTBEAT'].base_mode == ARMED_OFFBOARD_FLAGS, 'armed OFFBOARD = 145 (guided=false)'
     assert client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_ACTIVE, 'ACTIVE'
+    # PX4's return estimate from 2 m over home (RtlDirect): no climb inside the cone, land 1.83 m at
+    # MPC_Z_V_AUTO_DN 1.5 m/s: 1.1 x 1.2 s + RTL_TIME_MARGIN 100 s
+    estimate = client.wait_for(lambda: next((m for t, m in client.history if t > t0 and
+                                             m.get_type() == 'TIME_ESTIMATE_TO_TARGET'), None), 3.0,
+                               'TIME_ESTIMATE_TO_TARGET in hover')
+    assert 100 <= estimate.safe_return <= 102 and estimate.land == -1, estimate
 
 
 def failsafe_delay(client, mode):
@@ -162,6 +168,10 @@ def test_failsafe_without_rc_is_return_and_lands(start_sim):
     client.wait_for(lambda: zs.append(client.latest['LOCAL_POSITION_NED'].vz) or not client.armed(), 20.0,
                     'disarm after landing')
     assert max(zs) <= 0.7 + 0.3, 'descended at %.2f m/s (land speed 0.7)' % max(zs)
+    # landed: PX4's navigator has no return estimate any more
+    landed_s = client.now()
+    client.wait_for(lambda: any(t > landed_s and m.get_type() == 'TIME_ESTIMATE_TO_TARGET' and m.safe_return == 0
+                                for t, m in client.history), 3.0, 'TIME_ESTIMATE_TO_TARGET 0 once landed')
     # after the disarm the vehicle is back in the mode the user chose, and stays there
     client.wait_mode('OFFBOARD', 2.0)
     client.start_stream(down=-2.0)
