@@ -2,10 +2,11 @@
 
 `development` is `common` plus the messages current PX4 sends that `common` lacks
 (CURRENT_MODE and friends); two more that PX4 sends and this pymavlink lacks altogether
-(LINK_NODE_STATUS, TIME_ESTIMATE_TO_TARGET) are added below. Every module that names a MAVLink message, command, enum
-value or bit does it through `mavlink.<NAME>` from here (`mavlink.MAV_CMD_NAV_LAND`,
-`mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE`, `mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO`),
-never as a number, and builds and parses frames with the same module.
+(LINK_NODE_STATUS, TIME_ESTIMATE_TO_TARGET) are added below. Every module that names a
+MAVLink message, command, enum value or bit does it through `mavlink.<NAME>` from here
+(`mavlink.MAV_CMD_NAV_LAND`, `mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE`,
+`mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO`), never as a number, and builds and parses frames
+with the same module.
 """
 
 import inspect
@@ -83,7 +84,8 @@ def _define_message(msg_id, name, fields, doc):
         'ordered_fieldnames': wire_names,
         'fieldtypes': [field_type for _, field_type in fields],
         'fielddisplays_by_name': {}, 'fieldenums_by_name': {}, 'fieldunits_by_name': {},
-        'native_format': bytearray(fmt.encode()), 'orders': [wire_names.index(n) for n in names],  # XML field i is unpacked item orders[i]
+        'native_format': bytearray(fmt.encode()),
+        'orders': [wire_names.index(n) for n in names],  # XML field i is unpacked item orders[i]
         'lengths': [1] * len(names), 'array_lengths': [0] * len(names),
         'crc_extra': crc_extra(name, fields), 'unpacker': unpacker,
         'instance_field': None, 'instance_offset': -1,

@@ -264,11 +264,11 @@ class SimulatedPx4:
         self._reply(reply)
         return ACCEPTED
 
-    def _build(self, name, link, now, status=None):
+    def _build(self, name, link, now):
         """The message `name` as `link` sends it now (None: nothing to say)."""
         if name in telemetry.PER_LINK:
             return self.telemetry.link_node_status(self.link_counters[link], now)
-        return self.telemetry.build(name, self.flight.status(now) if status is None else status, now)
+        return self.telemetry.build(name, self.flight.status(now), now)
 
     def _cmd_inject_failure(self, msg, now):
         if not self.params['SYS_FAILURE_EN']:

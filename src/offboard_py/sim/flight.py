@@ -237,7 +237,7 @@ class Flight:
         thrust = v.collective_thrust() if c.armed else 0.0
         position, velocity = v.estimate
         nav = self.navigator
-        rtl = (nav.rtl_phase, nav.rtl_down) if c.nav_mode == 'AUTO.RTL' else None
+        rtl = (nav.rtl_phase, nav.rtl_down) if c.nav_mode == 'AUTO.RTL' and nav.rtl_down is not None else None
         return Status(c.nav_mode, c.user_mode, c.armed, c.failsafe, c.system_status(now_s), c.ready(now_s),
                       c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),

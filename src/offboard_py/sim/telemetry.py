@@ -10,7 +10,7 @@ FAILED).
 Status (sim.flight); it never sees the commander or the vehicle model. What several messages
 share (global position, Euler angles) is computed once per Status, i.e. once per step.
 LINK_NODE_STATUS is each link's own (`link_node_status`, from its counters). Not sent: PX4's
-EVENT / CURRENT_EVENT_SEQUENCE (their events are PX4's own metadata; the issue leaves them out).
+EVENT / CURRENT_EVENT_SEQUENCE (its event interface, whose texts live in PX4's own metadata).
 """
 
 import math
