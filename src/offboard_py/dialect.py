@@ -27,8 +27,9 @@ ARM_DISARM_FORCE_MAGIC = 21196
 
 # -- messages PX4 sends that this pymavlink release does not define -----------------------------
 # PX4 main sends LINK_NODE_STATUS (id 8) and TIME_ESTIMATE_TO_TARGET (id 380) on its onboard
-# link; both are work-in-progress messages of common.xml that pymavlink 2.4.49 leaves out (a
-# client built on it sees them as UNKNOWN_8 and UNKNOWN_380, as the reference census shows).
+# link, and PROTOCOL_VERSION (300) when asked; all three are work-in-progress messages of
+# common.xml that pymavlink 2.4.49 leaves out (a client built on it sees UNKNOWN_8 and
+# UNKNOWN_380, as the reference census shows).
 # They are added to the dialect here, in the shape of pymavlink's generated classes, so that
 # the project builds, sends and decodes them like any other message.
 
@@ -40,29 +41,34 @@ _TYPES = {  # MAVLink type -> (struct code, size)
 
 
 def crc_extra(name, fields):
-    """MAVLink's CRC_EXTRA of a message definition: the X.25 CRC of its name and of its fields'
-    types and names in wire order (no arrays or extensions here), folded into a byte."""
+    """MAVLink's CRC_EXTRA of a message definition (fields: (name, type[, array length]) in XML
+    order, no extensions): the X.25 CRC of its name and of its fields' types, names and array
+    lengths in wire order, folded into a byte."""
     crc = mavlink.x25crc((name + ' ').encode())
-    for field_name, field_type in wire_order(fields):
-        crc.accumulate((field_type + ' ' + field_name + ' ').encode())
+    for field in wire_order(fields):
+        crc.accumulate((field[1] + ' ' + field[0] + ' ').encode())
+        if len(field) > 2:
+            crc.accumulate(bytes((field[2],)))
     return (crc.crc & 0xFF) ^ (crc.crc >> 8)
 
 
 def wire_order(fields):
-    """A message's [(name, type)] in XML order -> wire order: by type size, largest first,
-    stable (MAVLink's rule)."""
+    """A message's fields in XML order -> wire order: by the size of their (element) type,
+    largest first, stable (MAVLink's rule)."""
     return sorted(fields, key=lambda field: -_TYPES[field[1]][1])
 
 
 def _define_message(msg_id, name, fields, doc):
-    """Add a message without arrays or extensions to the dialect: its class (the attributes
-    pymavlink's decoder, its encoder and offboard_py.wire use), MAVLINK_MSG_ID_<NAME>, its entry
-    in mavlink_map and MAVLink.<name>_encode / _send."""
-    names = [field_name for field_name, _ in fields]
+    """Add a message to the dialect (fields: (name, type[, array length]) in XML order; numeric
+    arrays, no extensions): its class (the attributes pymavlink's decoder, its encoder and
+    offboard_py.wire use), MAVLINK_MSG_ID_<NAME>, its entry in mavlink_map and
+    MAVLink.<name>_encode / _send."""
+    names = [field[0] for field in fields]
     ordered = wire_order(fields)
-    fmt = '<' + ''.join(_TYPES[field_type][0] for _, field_type in ordered)
-    wire_names = [field_name for field_name, _ in ordered]
-    unpacker = struct.Struct(fmt)
+    wire_names = [field[0] for field in ordered]
+    lengths = [field[2] if len(field) > 2 else 0 for field in ordered]  # in wire order, as pymavlink's
+    unpacker = struct.Struct('<' + ''.join(('%d' % n if n else '') + _TYPES[field[1]][0]
+                                           for field, n in zip(ordered, lengths)))
 
     def __init__(self, *args, **kwargs):
         mavlink.MAVLink_message.__init__(self, msg_id, name)
@@ -74,19 +80,21 @@ def _define_message(msg_id, name, fields, doc):
             setattr(self, field_name, values[field_name])
 
     def pack(self, mav, force_mavlink1=False):
-        return self._pack(mav, self.crc_extra,
-                          self.unpacker.pack(*[getattr(self, n) for n in wire_names]),
-                          force_mavlink1=force_mavlink1)
+        items = []
+        for field_name, n in zip(wire_names, lengths):
+            value = getattr(self, field_name)
+            items.extend(value[:n]) if n else items.append(value)
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(*items), force_mavlink1=force_mavlink1)
 
     cls = type('MAVLink_%s_message' % name.lower(), (mavlink.MAVLink_message,), {
         '__doc__': doc, '__init__': __init__, 'pack': pack,
         'id': msg_id, 'msgname': name, 'fieldnames': names,
         'ordered_fieldnames': wire_names,
-        'fieldtypes': [field_type for _, field_type in fields],
+        'fieldtypes': [field[1] for field in fields],
         'fielddisplays_by_name': {}, 'fieldenums_by_name': {}, 'fieldunits_by_name': {},
-        'native_format': bytearray(fmt.encode()),
-        'orders': [wire_names.index(n) for n in names],  # XML field i is unpacked item orders[i]
-        'lengths': [1] * len(names), 'array_lengths': [0] * len(names),
+        'native_format': bytearray(('<' + ''.join(_TYPES[field[1]][0] for field in ordered)).encode()),
+        'orders': [wire_names.index(n) for n in names],  # XML field i is wire field orders[i]
+        'lengths': [n or 1 for n in lengths], 'array_lengths': lengths,
         'crc_extra': crc_extra(name, fields), 'unpacker': unpacker,
         'instance_field': None, 'instance_offset': -1,
     })
@@ -127,3 +135,9 @@ if not hasattr(mavlink, 'MAVLINK_MSG_ID_TIME_ESTIMATE_TO_TARGET'):
         ('safe_return', 'int32_t'), ('land', 'int32_t'), ('mission_next_item', 'int32_t'),
         ('mission_end', 'int32_t'), ('commanded_action', 'int32_t'),  # s; -1: none or not available
     ], 'Time estimates (s) for events and actions given the vehicle\'s state and position (WIP).')
+
+if not hasattr(mavlink, 'MAVLINK_MSG_ID_PROTOCOL_VERSION'):
+    _define_message(300, 'PROTOCOL_VERSION', [
+        ('version', 'uint16_t'), ('min_version', 'uint16_t'), ('max_version', 'uint16_t'),  # x 100
+        ('spec_version_hash', 'uint8_t', 8), ('library_version_hash', 'uint8_t', 8),  # git hashes, first 8 bytes
+    ], 'The MAVLink versions a component speaks (WIP).')

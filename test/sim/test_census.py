@@ -155,6 +155,16 @@ def test_answers_as_px4_sitl(start_sim):
     assert (version.vendor_id, version.product_id) == (want['vendor_id'], want['product_id'])
     assert version.uid > 0xFFFFFFFF, 'a 64-bit uid'
 
+    # PROTOCOL_VERSION, by REQUEST_MESSAGE and by MAV_CMD_REQUEST_PROTOCOL_VERSION (what QGroundControl
+    # asks on connection): PX4 answers MAVLink 2, from 1 to 2 (Mavlink::send_protocol_version)
+    for command, params in ((mavlink.MAV_CMD_REQUEST_MESSAGE, (mavlink.MAVLINK_MSG_ID_PROTOCOL_VERSION,)),
+                            (mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION, (1,))):
+        start = len(client.history)
+        assert client.command(command, *params)[0] == ACCEPTED, command
+        protocol = client.wait_for(lambda: next((m for _, m in client.history[start:]
+                                                 if m.get_type() == 'PROTOCOL_VERSION'), None), 2.0, 'PROTOCOL_VERSION')
+        assert (protocol.version, protocol.min_version, protocol.max_version) == (200, 100, 200)
+
     # SET_MESSAGE_INTERVAL(ATTITUDE, 10 Hz): accepted and the rate changes
     result = client.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 100000)[0]
     assert result == answers['SET_MESSAGE_INTERVAL(ATTITUDE,10 Hz)']['result'] == ACCEPTED

@@ -15,7 +15,20 @@ C_HEADERS = {
                                       'tx_overflows': 30, 'rx_overflows': 32, 'tx_buf': 34, 'rx_buf': 35}),
     'TIME_ESTIMATE_TO_TARGET': (380, 232, 20, {'safe_return': 0, 'land': 4, 'mission_next_item': 8,
                                                'mission_end': 12, 'commanded_action': 16}),
+    'PROTOCOL_VERSION': (300, 217, 22, {'version': 0, 'min_version': 2, 'max_version': 4, 'spec_version_hash': 6,
+                                        'library_version_hash': 14}),
 }
+
+
+def _values(cls):
+    """A distinct value for every field (arrays: distinct elements), the same sign as its type allows."""
+    values, k = {}, 1
+    for field, type_name in zip(cls.fieldnames, cls.fieldtypes):
+        n = cls.array_lengths[cls.ordered_fieldnames.index(field)]
+        sign = -1 if type_name.startswith('int') else 1
+        values[field] = [sign * (k + i) for i in range(n)] if n else sign * k
+        k += max(n, 1)
+    return values
 
 
 @pytest.mark.parametrize('name', sorted(C_HEADERS))
@@ -26,20 +39,30 @@ def test_added_message_frames_as_the_c_library(name):
     assert cls.crc_extra == crc and wire.CRC_EXTRA[msg_id] == crc
     assert cls.unpacker.size == length
     # each field at the C header's offset: give every field a distinct value and find its bytes
-    values = {field: i + 1 for i, field in enumerate(cls.fieldnames)}
+    values = _values(cls)
     body = wire.payload(cls(**values))
     for field, offset in offsets.items():
         size = {'Q': 8, 'I': 4, 'i': 4, 'H': 2, 'B': 1}[cls.native_format.decode()[1 + cls.ordered_fieldnames.index(field)]]
-        assert int.from_bytes(body[offset:offset + size], 'little', signed=True) == values[field], field
+        for i, value in enumerate(values[field] if isinstance(values[field], list) else [values[field]]):
+            start = offset + i * size
+            assert int.from_bytes(body[start:start + size], 'little', signed=True) == value, (field, i)
 
 
 def test_crc_extra_follows_mavlinks_rule_for_messages_pymavlink_has():
-    """The same computation gives pymavlink's own CRC_EXTRA for messages without arrays."""
-    for cls in (mavlink.MAVLink_system_time_message, mavlink.MAVLink_message_interval_message,
-                mavlink.MAVLink_heartbeat_message, mavlink.MAVLink_local_position_ned_message):
-        fields = list(zip(cls.fieldnames, cls.fieldtypes))
-        if cls is mavlink.MAVLink_heartbeat_message:
-            fields = [(n, 'uint8_t' if t == 'uint8_t_mavlink_version' else t) for n, t in fields]
+    """The same computation gives pymavlink's own CRC_EXTRA, arrays included (extensions left out)."""
+    cases = ((mavlink.MAVLink_system_time_message, ()), (mavlink.MAVLink_message_interval_message, ()),
+             (mavlink.MAVLink_heartbeat_message, ()), (mavlink.MAVLink_local_position_ned_message, ()),
+             (mavlink.MAVLink_autopilot_version_message, ('uid2',)),
+             (mavlink.MAVLink_servo_output_raw_message, ('servo9_raw', 'servo10_raw', 'servo11_raw', 'servo12_raw',
+                                                         'servo13_raw', 'servo14_raw', 'servo15_raw', 'servo16_raw')))
+    for cls, extensions in cases:
+        fields = []
+        for name, type_name in zip(cls.fieldnames, cls.fieldtypes):
+            if name in extensions:
+                continue
+            n = cls.array_lengths[cls.ordered_fieldnames.index(name)]
+            type_name = 'uint8_t' if type_name == 'uint8_t_mavlink_version' else type_name
+            fields.append((name, type_name, n) if n else (name, type_name))
         assert crc_extra(cls.msgname, fields) == cls.crc_extra, cls.msgname
 
 
@@ -47,7 +70,7 @@ def test_crc_extra_follows_mavlinks_rule_for_messages_pymavlink_has():
 def test_added_message_round_trips_through_pymavlink_and_wire(name):
     msg_id = C_HEADERS[name][0]
     cls = mavlink.mavlink_map[msg_id]
-    values = [(-1 if t.startswith('int') else 7) * (i + 1) for i, t in enumerate(cls.fieldtypes)]
+    values = list(_values(cls).values())
     sender = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
     frame = bytes(getattr(sender, name.lower() + '_encode')(*values).pack(sender))
     parser = mavlink.MAVLink(None)

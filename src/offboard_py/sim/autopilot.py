@@ -42,7 +42,8 @@ ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIE
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 # What REQUEST_MESSAGE's older, dedicated commands ask for
 REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
-                        mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION}
+                        mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+                        mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION: mavlink.MAVLINK_MSG_ID_PROTOCOL_VERSION}
 
 
 class SimulatedPx4:
@@ -116,6 +117,7 @@ class SimulatedPx4:
             mavlink.MAV_CMD_REQUEST_MESSAGE: self._cmd_request_message,
             mavlink.MAV_CMD_GET_HOME_POSITION: self._cmd_request_message,
             mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._cmd_request_message,
+            mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._cmd_request_message,
             MAV_CMD_INJECT_FAILURE: self._cmd_inject_failure,
         }
         self._register()

@@ -94,7 +94,7 @@ UPDATE_PERIOD_S = {'GPS_RAW_INT': 1.0 / 8.0,              # the simulated GPS: 8
 # Messages of one link's own state, built for each link that sends them
 PER_LINK = frozenset(('LINK_NODE_STATUS',))
 # One-shot messages that MAV_CMD_REQUEST_MESSAGE can ask for besides the streams
-ON_REQUEST = frozenset(('AUTOPILOT_VERSION',))
+ON_REQUEST = frozenset(('AUTOPILOT_VERSION', 'PROTOCOL_VERSION'))
 # Every message the builder makes: what SET_MESSAGE_INTERVAL and REQUEST_MESSAGE accept
 STREAMABLE = frozenset(ONBOARD_RATES_HZ) | frozenset(GCS_RATES_HZ)
 NAMES_BY_ID = {getattr(mavlink, 'MAVLINK_MSG_ID_' + name): name for name in STREAMABLE | ON_REQUEST}
@@ -541,6 +541,11 @@ class TelemetryBuilder:
     def _autopilot_version(self, st, now_s):
         return self.mav.autopilot_version_encode(CAPABILITIES, PX4_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
                                                  0, 0, self.uid)
+
+    def _protocol_version(self, st, now_s):
+        """As PX4's Mavlink::send_protocol_version(): MAVLink 2 (200), from 1 to 2; no spec hash (PX4:
+        "TODO"); the library hash is PX4's mavlink submodule's commit, unknown here: zeros."""
+        return self.mav.protocol_version_encode(200, 100, 200, [0] * 8, [0] * 8)
 
     def statustext(self, severity, text):
         return self.mav.statustext_encode(severity, text.encode('ascii', 'replace')[:50])
