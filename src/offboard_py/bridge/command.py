@@ -79,7 +79,7 @@ class CommandWaiter:
 class Command:
     def __init__(self, bridge):
         self.bridge = bridge
-        self.waiter = CommandWaiter()
+        self.waiter = CommandWaiter(clock=bridge.monotonic_s)  # the throttle on ROS time, as mavros's
         self.timeout_s = bridge.cfg['cmd/command_ack_timeout']
         bridge.on('COMMAND_ACK', self.waiter.on_ack)
         self.services = [
