@@ -72,12 +72,19 @@ def rtl_return_height(params, distance):
     return max(height, 2.0 * acceptance)
 
 
+def rtl_return_down(params, position, home):
+    """The altitude PX4's RTL returns at from `position`, as local z (NED): the return altitude
+    for its distance from home, or where the vehicle is if higher (RTL never descends to return)."""
+    distance = math.hypot(position[0] - home[0], position[1] - home[1])
+    return min(home[2] - rtl_return_height(params, distance), position[2])
+
+
 def rtl_time_estimate(params, position, home, landed, rtl=None):
     """PX4's estimate of the time a direct return home (RTL_TYPE 0, multicopter) takes from
     `position` (local NED), in s, or None when PX4 has none (landed: PX4's RTL starts idle; its
     estimate is then invalid). `rtl`: (phase, return altitude as local z) while AUTO.RTL flies,
-    whose phase the estimate starts from; else it starts where PX4's RTL would: climbing when
-    below the return altitude, else flying home. Climbs at MPC_Z_V_AUTO_UP, flies at
+    whose phase the estimate starts from; else it starts where PX4's RTL would: climbing (0 m
+    when at or above the return altitude), then flying home. Climbs at MPC_Z_V_AUTO_UP, flies at
     MPC_XY_CRUISE, descends to RTL_DESCEND_ALT (or the return altitude, if lower), waits
     RTL_LAND_DELAY (a negative delay waits for good, and the landing is not counted), lands at
     MPC_Z_V_AUTO_DN (navigator's RtlDirect::calc_rtl_time_estimate with lib/rtl's estimator)."""
@@ -85,21 +92,17 @@ def rtl_time_estimate(params, position, home, landed, rtl=None):
         return None
     height = home[2] - position[2]
     distance = math.hypot(position[0] - home[0], position[1] - home[1])
-    if rtl is None:
-        phase = None
-        return_height = max(height, rtl_return_height(params, distance))
-    else:
-        phase, return_down = rtl
-        return_height = home[2] - return_down
+    phase, return_down = rtl if rtl is not None else ('climb', rtl_return_down(params, position, home))
+    return_height = home[2] - return_down
     down_speed = params['MPC_Z_V_AUTO_DN']
     loiter_height = min(params['RTL_DESCEND_ALT'], return_height)
     time_s = 0.0
-    if phase in (None, 'climb'):
+    if phase == 'climb':
         time_s += max(0.0, return_height - height) / params['MPC_Z_V_AUTO_UP']
         height = max(height, return_height)
-    if phase in (None, 'climb', 'return'):
+    if phase in ('climb', 'return'):
         time_s += distance / params['MPC_XY_CRUISE']
-    if phase in (None, 'climb', 'return', 'descend'):
+    if phase != 'land':
         time_s += max(0.0, height - loiter_height) / down_speed
         height = min(height, loiter_height)
         if params['RTL_LAND_DELAY'] < 0:
@@ -306,8 +309,7 @@ class Navigator:
         if mode == 'AUTO.LAND':
             self.land_xy = (v.position[0], v.position[1])
         elif mode == 'AUTO.RTL':
-            distance = math.hypot(v.position[0] - self.home[0], v.position[1] - self.home[1])
-            self.rtl_down = min(self.home[2] - rtl_return_height(p, distance), v.position[2])
+            self.rtl_down = rtl_return_down(p, v.position, self.home)
             self.rtl_phase = 'climb'
         elif mode == 'AUTO.MISSION':
             self.mission.restart_if_finished()
