@@ -21,8 +21,8 @@ from mavros_msgs.srv import (CommandBoolRequest, CommandTOLRequest, ParamGetRequ
                              ParamSetRequest, SetModeRequest, WaypointPullRequest, WaypointPushRequest)
 
 from offboard_py import frames
-from offboard_py.bridge import (command, core, global_position, imu, local_position, mission, node, param, setpoint,
-                                sys_status)
+from offboard_py.bridge import (command, core, global_position, home_position, imu, local_position, mission, node,
+                                param, setpoint, sys_status)
 from offboard_py.bridge.config import read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import mavlink
@@ -353,14 +353,28 @@ def test_an_ack_nobody_waits_for_is_logged_as_mavros_does_at_most_every_10_s(mon
     now[0] += 1.0
     waiter.on_ack(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_NAV_LAND, 4))
     assert warnings[1:] == ['CMD: Unexpected command 21, result 4']
-    # mavros's home_position plugin asks through cmd/command and waits: its ACK is expected there
+    # a command a plugin sent expecting its ACK (home_position's request, as mavros's waits for it)
     now[0] += 20.0
+    waiter.expect(mavlink.MAV_CMD_GET_HOME_POSITION)
     waiter.on_ack(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_GET_HOME_POSITION, 0))
-    assert len(warnings) == 2
+    assert len(warnings) == 2 and waiter.unexpected == 3
+    waiter.on_ack(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_GET_HOME_POSITION, 0))
+    assert warnings[2:] == ['CMD: Unexpected command 410, result 0'], 'one ACK expected, not every one'
     # an ACK that answers a waiting command is not unexpected
     entry = waiter.begin(mavlink.MAV_CMD_NAV_LAND)
     waiter.on_ack(mavlink.MAVLink_command_ack_message(mavlink.MAV_CMD_NAV_LAND, 0))
-    assert entry[0].is_set() and entry[1] == 0 and waiter.unexpected == 3
+    assert entry[0].is_set() and entry[1] == 0 and waiter.unexpected == 4
+
+
+def test_home_position_request_expects_its_ack():
+    """home_position asks for HOME_POSITION with a command of its own; its ACK is no surprise to
+    the cmd plugin (mavros's home_position asks through cmd/command and waits for it)."""
+    rig = Rig(command.Command, home_position.HomePosition)
+    rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED)
+    rig.bridge.set_connected(True)
+    rig.tick(110.0)  # the request's period after the rig's clock started
+    assert [m.command for m in rig.fcu.got('COMMAND_LONG')] == [mavlink.MAV_CMD_GET_HOME_POSITION]
+    assert rig.plugin.waiter.unexpected == 0
 
 
 def test_takeoff_carries_position_and_yaw():

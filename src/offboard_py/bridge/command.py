@@ -33,9 +33,6 @@ class Busy(Exception):
 
 
 UNEXPECTED_LOG_PERIOD_S = 10.0  # mavros: ROS_WARN_THROTTLE_NAMED(10, "cmd", "CMD: Unexpected command ...")
-# Commands another plugin sends itself whose ACK mavros expects: its home_position plugin asks through
-# cmd/command and waits, so that ACK is never "unexpected" there
-ACKED_ELSEWHERE = frozenset((mavlink.MAV_CMD_GET_HOME_POSITION,))
 
 
 class CommandWaiter:
@@ -47,6 +44,7 @@ class CommandWaiter:
         self._clock = clock
         self.unexpected = 0  # ACKs for no waiting command
         self._logged_s = None
+        self._expected = set()  # commands sent without waiting whose next ACK is expected all the same
 
     def begin(self, cmd):
         with self._lock:
@@ -60,11 +58,18 @@ class CommandWaiter:
         with self._lock:
             self._pending.pop(cmd, None)
 
+    def expect(self, cmd):
+        """The next ACK of `cmd` is expected though nothing waits for it: a plugin sent the command
+        itself where mavros's plugin asks through cmd/command and waits (home_position)."""
+        with self._lock:
+            self._expected.add(cmd)
+
     def on_ack(self, msg):
         with self._lock:
             entry = self._pending.get(msg.command)
             if entry is None:
-                if msg.command in ACKED_ELSEWHERE:
+                if msg.command in self._expected:
+                    self._expected.discard(msg.command)
                     return
                 self.unexpected += 1
                 now_s = self._clock()
@@ -80,6 +85,7 @@ class Command:
     def __init__(self, bridge):
         self.bridge = bridge
         self.waiter = CommandWaiter(clock=bridge.monotonic_s)  # the throttle on ROS time, as mavros's
+        bridge.commands = self.waiter  # for plugins that send a command themselves (Bridge.commands)
         self.timeout_s = bridge.cfg['cmd/command_ack_timeout']
         bridge.on('COMMAND_ACK', self.waiter.on_ack)
         self.services = [

@@ -3,7 +3,8 @@
 A plugin is a class built with the Bridge and using only this interface:
 - MAVLink: `on(msg_type, handler, accept=filters.SYSTEM, needed=None)`, `send(msg)`, `mav` (the
   codec that builds messages), `target_system`, `target_component`, `attitude` (the shared
-  cache); `listened(*publishers)` makes a `needed`;
+  cache); `listened(*publishers)` makes a `needed`; `commands` (the cmd plugin's COMMAND_ACK
+  waiter, when loaded: `expect(cmd)` before sending a command nothing waits for);
 - ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
   to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
@@ -56,6 +57,7 @@ class Bridge:
         self._connection_listeners = []
         self.attitude = Attitude()
         self.clock_offset = None  # the sys_time plugin, when loaded: stamp_ns(fcu_ns)
+        self.commands = None  # the command plugin's COMMAND_ACK waiter, when loaded: expect(cmd)
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         # registered before any plugin's handler, so readers see this message's attitude
         self.on('ATTITUDE_QUATERNION', self.attitude.update)

@@ -22,6 +22,8 @@ class HomePosition:
     def _request(self, _now_s):
         b = self.bridge
         if b.connected and not self.received:
+            if b.commands is not None:  # mavros asks through cmd/command, which waits for the ACK
+                b.commands.expect(mavlink.MAV_CMD_GET_HOME_POSITION)
             b.send(b.mav.command_long_encode(b.target_system, b.target_component,
                                              mavlink.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
 
