@@ -97,3 +97,22 @@ def test_a_client_without_them_sees_unknown_ids():
     parser.robust_parsing = True
     (decoded,) = parser.parse_buffer(frame)
     assert decoded.get_type() == 'UNKNOWN_380'
+
+
+@pytest.mark.parametrize('name', sorted(C_HEADERS))
+def test_added_message_send_writes_the_frame_as_pymavlinks_send_does(name):
+    """MAVLink.<name>_send, as pymavlink generates one for every message: the frame of <name>_encode."""
+    class Sink:
+        def __init__(self):
+            self.data = b''
+
+        def write(self, data):
+            self.data += bytes(data)
+    cls = mavlink.mavlink_map[C_HEADERS[name][0]]
+    values = list(_values(cls).values())
+    sink = Sink()
+    sender = mavlink.MAVLink(sink, srcSystem=1, srcComponent=1)
+    getattr(sender, name.lower() + '_send')(*values)
+    reference = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    assert sink.data == bytes(getattr(reference, name.lower() + '_encode')(*values).pack(reference))
+    assert sender.seq == 1
