@@ -34,8 +34,11 @@ DEFAULT_REMOTE_PORT = 14550
 # Unlike mavros (0.0.0.0), we listen on loopback unless a bind host is given.
 DEFAULT_BIND_HOST = '127.0.0.1'
 MAX_DATAGRAM = 65535
-# What one batched datagram may carry: within an Ethernet MTU
-MAX_BATCH_BYTES = 1400
+# What real mavros reads of one datagram (mavconn: MAVLINK_MAX_PACKET_LEN + 16): a longer one is cut,
+# and the cut frame swallows the start of the next datagram
+MAVROS_MAX_DATAGRAM = 296
+# What one packed datagram may carry (pack_datagrams, not PX4's framing): within an Ethernet MTU
+MAX_PACKED_BYTES = 1400
 # PX4's UDP link (mavlink_receiver.cpp): with a default partner not on this host, the partner is
 # taken from the first datagram after this long since the link started (seconds of its clock)
 LOCK_GRACE_S = 3.0
@@ -121,8 +124,10 @@ class MavlinkLink:
     """A MAVLink 2 UDP endpoint with handler dispatch and remote learning."""
 
     def __init__(self, bind, remote=None, system_id=1, component_id=1, learn_remote=True, broadcast=False,
-                 name='udp', lock_remote=False, clock=time.monotonic, peer=None):
-        """`remote`: where to send until one is learned (None: nowhere). `learn_remote`: follow every
+                 name='udp', lock_remote=False, clock=time.monotonic, peer=None, pack_datagrams=False):
+        """`pack_datagrams`: send_many() packs several frames into one datagram (not PX4's or mavros's
+        framing, which is one message a datagram; real mavros cannot read a packed datagram over 296
+        bytes). `remote`: where to send until one is learned (None: nowhere). `learn_remote`: follow every
         sender of a valid frame (mavros). `lock_remote`: PX4's rule instead (see `_lock_partner`), on
         `clock` (seconds). `peer`: (system id, component id) of what the remote is (None: anyone; the
         bridge's FCU link: its target system and component). A frame from another system is then
@@ -151,6 +156,7 @@ class MavlinkLink:
         if lock_remote and not _on_this_host(self.remote):
             self._lock_after_s = clock() + LOCK_GRACE_S
         self.name = name  # for the log, as mavconn names its links (udp0, udp1)
+        self.pack_datagrams = pack_datagrams
         self.remote_changes = 0
         self.mav = mavlink.MAVLink(_Sink(), srcSystem=system_id, srcComponent=component_id)
         self._send_lock = threading.Lock()  # pymavlink's sequence counter is not thread-safe
@@ -244,19 +250,22 @@ class MavlinkLink:
             return False
         return self.send_bytes(self._pack(msg))
 
-    def send_many(self, msgs, max_datagram=MAX_BATCH_BYTES):
-        """Several messages in as few datagrams of at most max_datagram bytes as they fit.
-
-        PX4 sends each message in its own datagram (send_start/send_finish per message).
-        Batching is ours, for cost: what a datagram costs (the sendto, and the receiver's
-        wake-up with its Python running cold) hardly depends on its size (README, "Benchmark").
-        Every UDP MAVLink parser we know of (mavconn, pymavlink, MAVSDK, QGroundControl) takes
-        several frames from one datagram, so what a client decodes is the same."""
+    def send_many(self, msgs):
+        """Send msgs in order, each in a datagram of its own, as PX4 and mavros frame MAVLink over UDP
+        (send_start/send_finish per message): mavconn reads at most MAVROS_MAX_DATAGRAM bytes of a
+        datagram. With pack_datagrams (an option for measurements, not PX4's framing) as many frames
+        as fit in MAX_PACKED_BYTES share a datagram. False when no remote is known yet."""
         if self.remote is None:
             return False
+        frames = self._pack_all(msgs)
+        if not self.pack_datagrams:
+            sent = True
+            for frame in frames:
+                sent = self.send_bytes(frame) and sent
+            return sent
         batch, size = [], 0
-        for frame in self._pack_all(msgs):
-            if batch and size + len(frame) > max_datagram:
+        for frame in frames:
+            if batch and size + len(frame) > MAX_PACKED_BYTES:
                 self.send_bytes(b''.join(batch))
                 batch, size = [], 0
             batch.append(frame)

@@ -17,11 +17,13 @@ from conftest import ACCEPTED, DENIED, FAILED, UNSUPPORTED, Client
 
 from offboard_py.dialect import FAILURE_TYPE_OFF, FAILURE_TYPE_OK, FAILURE_UNIT_SENSOR_GYRO, MAV_CMD_INJECT_FAILURE
 from offboard_py.dialect import mavlink
+from offboard_py.mavlink_link import MAVROS_MAX_DATAGRAM
 
 CENSUS = json.load(open(os.path.join(os.path.dirname(os.path.abspath(__file__)), 'px4_census.json')))
 FAST = ('--ready-delay', '1')
 WINDOW_S = 5.0
 PREARM = mavlink.MAV_SYS_STATUS_PREARM_CHECK
+CENSUS_MESSAGES_HZ = sum(CENSUS['rates_hz'].values())  # what PX4 sends on the onboard link, all types
 
 
 def measured_rates(client, t0, t1):
@@ -106,32 +108,51 @@ def link_status_as_px4s(client, t0, t1):
     assert last.messages_lost == 0 and last.rx_parse_err == 0, last
 
 
-def test_two_steps_a_datagram_each_message_at_its_own_step(start_sim):
-    """PX4 sends each message in a datagram of its own; the simulator sends the streams of two 10 ms
-    steps together (--steps-per-datagram 2, the default: each datagram costs both ends a wake-up or
-    a sendto, README "Benchmark"), and each message keeps its own step's time: 50 datagrams a
-    second with ATTITUDE still at 100 Hz, its time_boot_ms 10 ms apart. With 1, one a step."""
-    for steps, datagrams_hz in ((2, 50.0), (1, 100.0)):
-        _, client = start_sim(*FAST, '--steps-per-datagram', str(steps))
+def framing_errors(client, t0, t1, link):
+    """PX4's framing on one link over [t0, t1]: one message a datagram, none longer than what real
+    mavros reads of a datagram (MAVROS_MAX_DATAGRAM, 296 bytes; PX4's largest recorded is 244)."""
+    window = [(n, count) for t, n, count in list(client.datagrams) if t0 <= t <= t1]
+    assert len(window) > 100, '%s link: only %d datagrams in %.1f s' % (link, len(window), t1 - t0)
+    errors = []
+    several = sum(1 for _, count in window if count != 1)
+    if several:
+        errors.append('%s link: %d of %d datagrams carry other than one message' % (link, several, len(window)))
+    too_long = [n for n, _ in window if n > MAVROS_MAX_DATAGRAM]
+    if too_long:
+        errors.append('%s link: %d datagrams over %d bytes (largest %d)' % (
+            link, len(too_long), MAVROS_MAX_DATAGRAM, max(too_long)))
+    return errors
+
+
+def test_one_message_a_datagram_on_both_links_each_at_its_own_step(start_sim):
+    """PX4 sends each message in a datagram of its own (the recorded conversations: about 420
+    datagrams a second on the onboard link, largest 244 bytes), and real mavros reads at most 296
+    bytes of one: both links, the parameter list included, frame so. The loop wakes every two
+    10 ms steps (--steps-per-wakeup), and each message keeps its own step's time: ATTITUDE's
+    time_boot_ms 10 ms apart."""
+    sim, client = start_sim(*FAST)
+    gcs = Client(sim.instance, sim.clock, port=sim.gcs_port)
+    try:
+        gcs.wait_heartbeat(5.0)
         wait_ready(client)
         t0 = client.now()
+        client.send(client.mav.param_request_list_encode(client.target, 1))
         client.sleep(3.0)
-        window = [(t, m) for t, m in list(client.history) if t0 <= t <= client.now()]
-        arrivals = sorted({t for t, _ in window})  # a datagram's messages share its kernel arrival stamp
-        rate = (len(arrivals) - 1) / (arrivals[-1] - arrivals[0])
-        assert abs(rate - datagrams_hz) <= 0.1 * datagrams_hz, \
-            '--steps-per-datagram %d: %.1f datagrams/s, expected %g' % (steps, rate, datagrams_hz)
+        t1 = client.now()
+        errors = framing_errors(client, t0, t1, 'onboard') + framing_errors(gcs, t0, t1, 'GCS')
+        assert not errors, '; '.join(errors)
+        params = [m for t, m in list(client.history) if t0 <= t <= t1 and m.get_type() == 'PARAM_VALUE']
+        assert len(params) >= 100, 'the parameter list: %d PARAM_VALUE in 3 s' % len(params)
+        rate = sum(1 for t, _, _ in client.datagrams if t0 <= t <= t1) / (t1 - t0)
+        assert rate >= CENSUS_MESSAGES_HZ * 0.9, 'onboard link: %.0f datagrams/s, PX4 sends about %.0f messages/s, ' \
+            'each in its own' % (rate, CENSUS_MESSAGES_HZ)
+        window = [(t, m) for t, m in list(client.history) if t0 <= t <= t1]
         attitude_ms = [m.time_boot_ms for _, m in window if m.get_type() == 'ATTITUDE']
         gaps = [b - a for a, b in zip(attitude_ms, attitude_ms[1:])]
         assert set(gaps) <= {9, 10, 11} and abs(sum(gaps) / len(gaps) - 10.0) < 0.2, \
             'ATTITUDE time_boot_ms steps %s (expected 10 ms: each message at its own step)' % sorted(set(gaps))
-        per_datagram = {}
-        for t, m in window:
-            per_datagram[t] = per_datagram.get(t, 0) + (m.get_type() == 'ATTITUDE')
-        counts = list(per_datagram.values())
-        # a late wake-up (a loaded machine) may carry one step more: nine in ten must be as configured
-        assert counts.count(steps) >= 0.9 * len(counts), \
-            'ATTITUDE per datagram: %s, expected %d' % (sorted(counts), steps)
+    finally:
+        gcs.close()
 
 
 def test_answers_as_px4_sitl(start_sim):

@@ -59,13 +59,6 @@ class FakeLink:
         self.fcu.receive(data)
         return True
 
-    def send_many(self, msgs):
-        """Several messages in one datagram, as MavlinkLink.send_many."""
-        with self._lock:
-            data = b''.join(msg.pack(self.mav) for msg in msgs)
-        self.fcu.receive(data)
-        return True
-
     def handle_datagram(self, data):
         for msg in mavlink.MAVLink(None).parse_buffer(data) or []:
             for handler in self.handlers.get(msg.get_type(), ()):

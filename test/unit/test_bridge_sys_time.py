@@ -75,29 +75,33 @@ def test_fcu_requests_are_answered_with_ros_time():
     assert (answer.tc1, answer.ts1) == (1000 * 10 ** 9, 123456789)
 
 
-def test_own_request_rides_with_the_answer_at_the_same_rate():
-    """The bridge's 10 Hz request goes in the datagram of its answer to the FCU's request when it is
-    due within a period, and then not on its timer: PX4 (10 requests a second) gets 10 requests a
-    second from the bridge, each stamped with its own send time, and reads one datagram for both.
-    Without the FCU's requests the timer sends them."""
+def test_own_request_goes_with_the_answer_at_the_same_rate():
+    """The bridge's 10 Hz request goes right after its answer to the FCU's request when it is due
+    within a period, and then not on its timer: PX4 (10 requests a second) gets 10 requests a second
+    from the bridge, each stamped with its own send time, and reads both in one wake-up. Each
+    message is a datagram of its own, as mavros frames them. Without the FCU's requests the timer
+    sends them."""
     r = rig()
     datagrams = []
     receive = r.fcu.receive
     r.fcu.receive = lambda data: datagrams.append(data) or receive(data)
     start_s = r.clock.now_s
+
+    def timesyncs(data):
+        return [(m.tc1, m.ts1) for m in mavlink.MAVLink(None).parse_buffer(data)]
     for i in range(10):  # one second of PX4's requests, 0.1 s apart, and the timer's wake-ups between them
         r.clock.now_s = start_s + 0.1 * i + 0.03
         r.ros_time.now_ns = 1000 * 10 ** 9 + i * 10 ** 8
         r.fcu.send(BUILD.timesync_encode(0, 5 * 10 ** 9 + i))
-        both = [m for m in mavlink.MAVLink(None).parse_buffer(datagrams[-1])]
-        assert [(m.tc1, m.ts1) for m in both] == [(r.ros_time.now_ns, 5 * 10 ** 9 + i), (0, r.ros_time.now_ns)], \
-            'the answer, then our request stamped now, in one datagram'
+        assert [timesyncs(d) for d in datagrams[-2:]] == [[(r.ros_time.now_ns, 5 * 10 ** 9 + i)],
+                                                          [(0, r.ros_time.now_ns)]], \
+            'the answer, then our request stamped now, a datagram each'
         r.bridge.run_periodic(start_s + 0.1 * i + 0.08)
-    assert len(datagrams) == 10, 'the timer sent nothing of its own: each request went with an answer'
+    assert len(datagrams) == 20, 'the timer sent nothing of its own: each request went with an answer'
     assert sum(1 for m in r.fcu.got('TIMESYNC') if m.tc1 == 0) == 10, 'the rate is 10 a second'
     r.fcu.send(BUILD.timesync_encode(0, 7))  # the next request is due within a period: it goes along ...
     r.fcu.send(BUILD.timesync_encode(0, 8))  # ... but not twice in one period: this one is answered alone
-    assert [len(mavlink.MAVLink(None).parse_buffer(d)) for d in datagrams[-2:]] == [2, 1]
+    assert [timesyncs(d)[0][0] == 0 for d in datagrams[-3:]] == [False, True, False]
     r.bridge.run_periodic(start_s + 1.5)  # the FCU stopped asking: the timer asks
     assert [m.tc1 for m in mavlink.MAVLink(None).parse_buffer(datagrams[-1])] == [0]
 

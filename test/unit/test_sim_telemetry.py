@@ -260,7 +260,7 @@ def test_altitude_is_never_nan_and_home_is_set_again_at_arming():
 
 
 def test_cycles_of_one_wake_up_each_run_at_their_own_time():
-    """SimulatedPx4.run() runs the cycles of one wake-up back to back (--steps-per-datagram): each
+    """SimulatedPx4.run() runs the cycles of one wake-up back to back (--steps-per-wakeup): each
     must step the flight stack at its own slot on the schedule, not at the wake-up's time, or the
     timers and the navigator's trajectory (dt = now - last) move in jumps of a whole wake-up."""
     from offboard_py.sim.autopilot import SimulatedPx4

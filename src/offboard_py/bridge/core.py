@@ -82,9 +82,9 @@ class Bridge:
         """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
         return lambda: any(publisher.get_num_connections() for publisher in publishers)
 
-    def send(self, msg, *more):
-        """Send to the FCU, several messages in one datagram; False while its address is unknown."""
-        return self.link.send_many((msg,) + more) if more else self.link.send(msg)
+    def send(self, msg):
+        """Send to the FCU, in a datagram of its own as mavros does; False while its address is unknown."""
+        return self.link.send(msg)
 
     # -- ROS ----------------------------------------------------------------------------------
 

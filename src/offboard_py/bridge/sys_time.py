@@ -133,7 +133,8 @@ class SysTime:
             answer = self.bridge.mav.timesync_encode(now_ns, msg.ts1)
             if (self.request_task is not None and self.bridge.connected
                     and self.bridge.take_early(self.request_task, self.bridge.monotonic_s())):
-                self.bridge.send(answer, self.bridge.mav.timesync_encode(0, now_ns))  # and ask, in one datagram
+                self.bridge.send(answer)
+                self.bridge.send(self.bridge.mav.timesync_encode(0, now_ns))  # and ask, in step with the answer
             else:
                 self.bridge.send(answer)
         elif msg.tc1 > 0 and self.mode == 'MAVLINK':

@@ -8,9 +8,9 @@ the link its request came from. Every COMMAND_LONG/COMMAND_INT gets a COMMAND_AC
 table {MAV_CMD: handler}; what is addressed to another system is ignored. The flight stack
 (sim.flight) steps at `rate_hz` of its clock (real time, or simulated time at `speed` times
 real time: offboard_py.simclock); the streams due at each step are built for that step (each
-message once, whatever the number of links), and those of the `steps_per_datagram` steps of
-one wake-up go out in one datagram per link (run()); what the flight stack says (mode changes,
-texts, mission progress) goes out on both links at once.
+message once, whatever the number of links), and those of the `steps_per_wakeup` steps of one
+wake-up go out together (run()), each message in a datagram of its own as PX4 frames them; what
+the flight stack says (mode changes, texts, mission progress) goes out on both links at once.
 """
 
 import collections
@@ -48,14 +48,15 @@ REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_I
 
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
-                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, steps_per_datagram=2, clock=None,
-                 signing_key_file=None, allowed_systems=(), gcs=True, gcs_port=None, gcs_remote_port=None):
+                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, steps_per_wakeup=2, clock=None,
+                 signing_key_file=None, allowed_systems=(), gcs=True, gcs_port=None, gcs_remote_port=None,
+                 pack_datagrams=False):
         # Every timer, rate and time_boot_ms runs on this clock: speed x real time
         self.clock = SimClock(1.0) if clock is None else clock
         clock = self.clock
         self.system_id = instance + 1
         self.rate_hz = rate_hz
-        self.steps_per_datagram = steps_per_datagram
+        self.steps_per_wakeup = steps_per_wakeup
         now = clock()
         self.boot_s = now
         self.params = sim_params.ParamStore(system_id=self.system_id)
@@ -67,7 +68,7 @@ class SimulatedPx4:
         remote_port = SITL_REMOTE_PORT + instance if remote_port is None else remote_port
         # Both links keep the first sender they hear from, as PX4's UDP links do (mavlink_link._lock_partner)
         self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1,
-                                name='onboard', lock_remote=True, clock=clock)
+                                name='onboard', lock_remote=True, clock=clock, pack_datagrams=pack_datagrams)
         # what the simulator builds it only sends: pymavlink's encode methods, packed straight into
         # payloads without message objects (offboard_py.wire.PackingCodec; telemetry is half its CPU)
         self.mav = wire.PackingCodec(self.link.mav)
@@ -78,7 +79,8 @@ class SimulatedPx4:
             gcs_remote_port = GCS_REMOTE_PORT if gcs_remote_port is None else gcs_remote_port
             try:
                 self.gcs_link = MavlinkLink((bind_host, gcs_port), (bind_host, gcs_remote_port), self.system_id, 1,
-                                            name='GCS', lock_remote=True, clock=clock)
+                                            name='GCS', lock_remote=True, clock=clock,
+                                            pack_datagrams=pack_datagrams)
             except OSError:
                 self.link.close()
                 raise
@@ -310,8 +312,6 @@ class SimulatedPx4:
 
     def _send_param_lists(self):
         for link, pending in list(self.param_lists.items()):
-            # in one datagram, as the streams: at 10x the list's 887 datagrams came within 90 ms and
-            # overflowed a Python client's socket buffer
             link.send_many([self._param_value(pending.popleft()) for _ in range(min(PARAM_LIST_BATCH, len(pending)))])
             if not pending:
                 del self.param_lists[link]
@@ -436,16 +436,15 @@ class SimulatedPx4:
         """Run on the clock until stop() (or for duration_s of its seconds).
 
         The flight stack steps every 1/rate_hz s on the loop's schedule, and the process wakes
-        every steps_per_datagram steps (and when a datagram comes in: requests are answered and
-        setpoints taken at once): the due steps run, and their streams go out in one datagram
-        per link. PX4 sends each message in a datagram of its own; here each datagram costs a
-        wake-up on both sides, with the Python and the network path running cold after it
-        (on the development machine the first sendto after 20 ms asleep takes 55-65 us, the next
-        8 us), whatever the datagram holds: 50 datagrams a second instead of 100 (or 405) is a
-        large part of what a vehicle costs. Every message keeps its own step's time and values; the first
-        step's messages of a pair arrive one step (10 ms) after their time_boot_ms."""
+        every steps_per_wakeup steps (and when a datagram comes in: requests are answered and
+        setpoints taken at once): the due steps run, and their streams go out, each message in a
+        datagram of its own as PX4 sends them (real mavros reads at most 296 bytes of a datagram).
+        A wake-up costs more than a sendto (on the development machine the first sendto after
+        20 ms asleep takes 55-65 us, the next 8 us), so two steps share one: every message keeps
+        its own step's time and values, and the first step's messages of a pair leave one step
+        (10 ms) after their time_boot_ms."""
         period = 1.0 / self.rate_hz
-        batch = self.steps_per_datagram
+        batch = self.steps_per_wakeup
         speed = getattr(self.clock, 'speed', 1.0)
         self.running = True
         poller = select.poll()
@@ -482,7 +481,7 @@ class SimulatedPx4:
                 self.step(period, next_s - self.boot_s, out)
                 next_s += period
             for link, msgs in out.items():
-                link.send_many(msgs)  # PX4: a datagram per message (see send_many and the docstring)
+                link.send_many(msgs)  # a datagram per message, as PX4 (MavlinkLink.send_many)
 
     def stop(self):
         self.running = False

@@ -108,9 +108,13 @@ def parser():
                    help='simulated time at K x real time (K > 0, default 1): the model, timers, streams and '
                         'time_boot_ms all run K times faster; the ROS side follows /clock (sim_clock)')
     p.add_argument('--rate', type=float, default=100.0, help='model and controller rate in Hz (default 100)')
-    p.add_argument('--steps-per-datagram', type=int, default=2, metavar='N',
-                   help='the streams of N steps go out together, one datagram per link (default 2: 50 datagrams/s '
-                        'at 100 Hz; 1: one per step). PX4 sends one per message; the cost is per datagram')
+    p.add_argument('--steps-per-wakeup', type=int, default=2, metavar='N',
+                   help='the loop wakes every N steps and sends their streams together, each message in a '
+                        'datagram of its own as PX4 does (default 2; 1: a wake-up a step)')
+    p.add_argument('--pack-datagrams', action='store_true',
+                   help='NOT PX4\'s framing, for measurements only: pack the messages of a wake-up into as few '
+                        'datagrams as fit 1400 bytes (real mavros reads at most 296 bytes of a datagram and '
+                        'cannot fly this)')
     p.add_argument('--setpoint-log', metavar='DIR',
                    help='at exit, write DIR/setpoints-N.txt: arrival time (ns) and time_boot_ms of each '
                         'accepted setpoint (for the benchmark)')
@@ -131,15 +135,16 @@ def main(argv=None):
     if not 10.0 <= args.rate <= 1000.0:
         logging.error('--rate must be 10..1000 Hz, got %g', args.rate)
         return 2
-    if not 1 <= args.steps_per_datagram <= 10:
-        logging.error('--steps-per-datagram must be 1..10, got %d', args.steps_per_datagram)
+    if not 1 <= args.steps_per_wakeup <= 10:
+        logging.error('--steps-per-wakeup must be 1..10, got %d', args.steps_per_wakeup)
         return 2
     try:
         home = LocalFrame(*args.home).to_global(args.spawn[1], args.spawn[0], 0.0)
         sim = SimulatedPx4(instance=args.instance, home=home, bind_host=args.bind,
                            local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
                            ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate,
-                           steps_per_datagram=args.steps_per_datagram, clock=SimClock(args.speed),
+                           steps_per_wakeup=args.steps_per_wakeup, clock=SimClock(args.speed),
+                           pack_datagrams=args.pack_datagrams,
                            signing_key_file=args.signing_key, allowed_systems=args.allow_sysid,
                            gcs=not args.no_gcs, gcs_port=args.gcs_port, gcs_remote_port=args.gcs_remote_port)
     except (ParamRejected, SigningKeyError) as err:

@@ -111,6 +111,7 @@ class Client:
         self.history = []          # (simulated time, msg) of everything received
         self.by_type = {}          # message type -> [(simulated time, msg)], the history by type
         self.acks = []             # (simulated time, COMMAND_ACK)
+        self.datagrams = []        # (simulated time, bytes, messages) of every datagram received
         self.received_s = float('-inf')  # arrival of the newest datagram read
         self.last_setpoint_s = None  # simulated time of the last setpoint start_stream sent
         self._stream = None
@@ -120,9 +121,9 @@ class Client:
 
     def _receive(self):
         """Each datagram whole, stamped with the kernel's arrival time: what the vehicle sent when,
-        however late this thread gets to it (at speed K a wall millisecond is K simulated ones).
-        pymavlink's recv_match would return one message per datagram read, queueing the rest of a
-        datagram (the simulator sends a step's streams in one) behind the next one."""
+        however late this thread gets to it (at speed K a wall millisecond is K simulated ones), and
+        its size and message count kept (PX4 frames one message a datagram; pymavlink's recv_match
+        would queue the rest of a datagram that held several behind the next one)."""
         sock = self.conn.port
         while self._running:
             if not select.select([sock], [], [], 0.2)[0]:
@@ -141,6 +142,7 @@ class Client:
                     self.by_type.setdefault(msg.get_type(), []).append((now, msg))
                     if msg.get_type() == 'COMMAND_ACK':
                         self.acks.append((now, msg))
+                self.datagrams.append((now, len(data), len(msgs)))
                 self.received_s = now
 
     def _arrival_s(self, ancdata):
