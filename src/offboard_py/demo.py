@@ -18,6 +18,7 @@ import sys
 import threading
 import time
 
+from offboard_py import stack
 from offboard_py.master import MasterTimeout, master_online, wait_for_master
 from offboard_py.phases import PhaseWatcher
 from offboard_py.simclock import SimClock, SpeedError, parse_speed
@@ -82,7 +83,15 @@ class Recorder:
                                                        'ARMED' if self.phases.armed else 'disarmed', self.z())
 
 
-def plot(recorder, path):
+def stack_label(launch_args):
+    """Which stack the launch arguments fly, in words (start_offb.launch's fcu, bridge, px4_sitl)."""
+    given = dict(a.split(':=', 1) for a in launch_args)
+    if given.get('px4_sitl', 'false').lower() in ('true', '1'):
+        return 'real mavros + real PX4 SITL (Gazebo Classic)'
+    return stack.describe(given.get('fcu', 'sim'), given.get('bridge', 'ours'))
+
+
+def plot(recorder, path, label='our mavros-compatible bridge + our simulated PX4'):
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -102,7 +111,7 @@ def plot(recorder, path):
     ax.set_xlabel('time since start (s)')
     ax.set_ylabel('altitude (m)')
     ax.set_ylim(min(-0.1, min([z for _, z in alt] + [0.0])), top * 1.2)
-    ax.set_title('offboard_py takeoff demo: offb_node -> mavros bridge -> simulated PX4')
+    ax.set_title('offboard_py takeoff demo: offb_node -> %s' % label.replace(' + ', ' -> '), fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(loc='lower right')
     fig.tight_layout()
@@ -163,7 +172,7 @@ def launch_failure(path, lines=6):
             text = f.read().splitlines()
     except OSError:
         return []
-    keys = ('error', 'fatal', 'died')
+    keys = ('error', 'fatal', 'died', 'not found')
     plain = (re.sub(r'\x1b\[[0-9;]*m|={3,}', '', line).strip() for line in text)  # no colours, no rules
     return [line for line in plain if line.startswith('[sim_px4') or any(k in line.lower() for k in keys)][-lines:]
 
@@ -209,8 +218,10 @@ def main(argv=None):
         if args.bag:
             bag = subprocess.Popen(['rosbag', 'record', '-q', '-O', args.bag] + BAG_TOPICS,
                                    stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-        print('takeoff demo: offb_node -> mavros bridge -> simulated PX4%s (node output: %s)'
-              % ('' if clock.real_time else ', simulated time at %gx' % args.speed, args.log))
+        label = stack_label(args.launch_args)
+        print('takeoff demo: offb_node -> %s%s (node output: %s)'
+              % (label.replace(' + ', ' -> '), '' if clock.real_time else ', simulated time at %gx' % args.speed,
+                 args.log))
         plotted = False
         last_line = 0.0
         while not interrupted:
@@ -226,7 +237,7 @@ def main(argv=None):
                 print(rec.status(), flush=True)
                 last_line = rec.now()
             if not plotted and rec.held_for(HOLD_TOLERANCE_M) >= args.hold:
-                plot(rec, args.plot)
+                plot(rec, args.plot, label)
                 plotted = True
                 print('\n' if tty else '', end='')
                 print('held %.1f m for %.0f s at t=%.1f s; plot: %s' % (rec.target(), args.hold, rec.now(),

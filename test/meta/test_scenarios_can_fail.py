@@ -1,6 +1,6 @@
 """The takeoff scenario must fail for a node that does not stream first, and say why.
 
-Runs the real rostest (its own master, a free instance) with test/tools/broken_offb_node.py as
+Runs the real rostest (its own master, a free instance) with test/rostest/broken_offb_node.py as
 the node under test and reads the JUnit result it writes.
 """
 

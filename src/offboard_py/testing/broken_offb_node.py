@@ -1,6 +1,6 @@
 """A deliberately broken offboard node: it asks for OFFBOARD and arming without streaming
 setpoints first (it would only stream once armed). PX4 refuses to arm it, so the takeoff
-scenario must fail with it, saying why. Run as test/tools/broken_offb_node.py by test/meta."""
+scenario must fail with it, saying why. Run as test/rostest/broken_offb_node.py by test/meta."""
 
 import rospy
 from geometry_msgs.msg import PoseStamped

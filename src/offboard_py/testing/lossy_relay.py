@@ -9,7 +9,7 @@ With --control-port, a test acts on it when it wants, by a datagram to that port
   "cut SECONDS [both|to_fcu|to_bridge]"     cut one or both directions from now on;
   "drop P SECONDS [both|to_fcu|to_bridge]"  a burst of random loss: drop each datagram with
                                             probability P (0..1) from now on, on top of --drop.
-Runs as a roslaunch node too (name:=value arguments are ignored), through test/tools/lossy_relay.py.
+Runs as a roslaunch node too (name:=value arguments are ignored), through test/rostest/lossy_relay_node.py.
 Loopback only.
 """
 

@@ -1,0 +1,95 @@
+"""Which stack flies: the FCU (`fcu:=sim|px4_sih`) and the ROS side (`bridge:=ours|mavros`).
+
+The launch files take these two arguments; `sim` and `ours` are this project's simulated PX4 and
+mavros-compatible bridge, `px4_sih` a real PX4 SITL with PX4's SIH quadrotor (offboard_py.px4_sih),
+`mavros` real mavros's px4.launch. This module names the choices once, says in one line what is
+wrong with a choice (`python -m offboard_py.stack fcu:=... bridge:=...`, run by the launch files
+when an argument has no such value, exits 1 and so ends the launch), and finds the real parts a
+user has built (`find_real_parts`: the cross-stack test tier and `./run bench --compare` use it).
+"""
+
+import os
+import subprocess
+import sys
+
+from offboard_py import px4_sih
+
+FCUS = {'sim': 'our simulated PX4', 'px4_sih': 'real PX4 SITL (SIH quadrotor)'}
+BRIDGES = {'ours': 'our mavros-compatible bridge', 'mavros': 'real mavros'}
+CONFIG_FILE = 'real-stack.conf'  # beside ./run: PX4_DIR=... (one NAME=value a line, # comments)
+
+
+def describe(fcu, bridge):
+    """'our bridge + real PX4 SITL (SIH quadrotor)'-style label of a stack, for plots and tables."""
+    return '%s + %s' % (BRIDGES.get(bridge, bridge), FCUS.get(fcu, fcu))
+
+
+def choice_errors(fcu, bridge):
+    """What is wrong with the launch arguments fcu and bridge, one line each (none: nothing)."""
+    errors = []
+    if fcu not in FCUS:
+        errors.append('fcu:=%s is not a flight controller this launch can start: use %s'
+                      % (fcu, ' or '.join('fcu:=%s (%s)' % kv for kv in FCUS.items())))
+    if bridge not in BRIDGES:
+        errors.append('bridge:=%s is not a ROS side this launch can start: use %s'
+                      % (bridge, ' or '.join('bridge:=%s (%s)' % kv for kv in BRIDGES.items())))
+    return errors
+
+
+def read_config(path):
+    """NAME=value lines of a real-stack config file ({} when there is none); bad lines raise ValueError."""
+    values = {}
+    if not os.path.exists(path):
+        return values
+    with open(path) as f:
+        for number, line in enumerate(f, 1):
+            line = line.strip()
+            if not line or line.startswith('#'):
+                continue
+            name, sep, value = line.partition('=')
+            if not sep or not name.strip():
+                raise ValueError('%s:%d: expected NAME=value, got %r' % (path, number, line))
+            values[name.strip()] = os.path.expanduser(value.strip())
+    return values
+
+
+def rospack_find(package):
+    """The package's folder, or None when ROS cannot find it."""
+    try:
+        out = subprocess.run(['rospack', 'find', package], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                             universal_newlines=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return out.stdout.strip() or None if out.returncode == 0 else None
+
+
+def find_real_parts(env=None, config_path=None, find_package=None):
+    """{'px4_dir': DIR or None, 'mavros': DIR or None, 'why': [lines saying what was not found]}.
+    PX4: $PX4_DIR, else PX4_DIR in the config file; mavros: `rospack find mavros`."""
+    env = os.environ if env is None else env
+    find_package = rospack_find if find_package is None else find_package
+    config = read_config(config_path) if config_path else {}
+    px4_dir = env.get('PX4_DIR') or config.get('PX4_DIR') or ''
+    found = {'px4_dir': None, 'mavros': None, 'why': []}
+    try:
+        px4_sih.find_build(px4_dir)
+        found['px4_dir'] = os.path.abspath(os.path.expanduser(px4_dir))
+    except px4_sih.MissingPx4 as err:
+        found['why'].append('no real PX4: %s' % err)
+    found['mavros'] = find_package('mavros')
+    if not found['mavros']:
+        found['why'].append('no real mavros: `rospack find mavros` finds no package')
+    return found
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    given = dict(a.split(':=', 1) for a in argv if ':=' in a and not a.startswith('__'))
+    errors = choice_errors(given.get('fcu', 'sim'), given.get('bridge', 'ours'))
+    for line in errors:
+        print('error: %s' % line, file=sys.stderr)
+    return 1 if errors else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
