@@ -212,12 +212,28 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~altitude', '~imu/data', '~imu/data_raw', '~imu/mag', '~imu/static_pressure', '~imu/temperature_imu',
         '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
         '~setpoint_raw/target_local', '~setpoint_raw/target_attitude', '~statustext/recv', '~vfr_hud', '~rc/in',
-        '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics'}
-    assert '/tf' in Rig(*node.PLUGINS, local_position__tf__send=True).ros.topics, 'tf/send adds /tf'
+        '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics', '/tf', '/tf_static'}
     assert {name for name, pub in topics.items() if pub.latch} == {'~state', '~home_position/home',
-                                                                   '~mission/waypoints'}
+                                                                   '~mission/waypoints', '/tf_static'}
     assert {name: pub.queue_size for name, pub in topics.items() if pub.queue_size != 10} == {
-        '~home_position/home': 2, '~mission/waypoints': 2, 'mavlink/from': 100}
+        '~home_position/home': 2, '~mission/waypoints': 2, 'mavlink/from': 100, '/tf': 100, '/tf_static': 1}
+
+
+def test_tf_static_carries_mavros_ned_and_frd_frames():
+    """mavros latches map -> map_ned, odom -> odom_ned (ENU to NED: 180 deg about (1, 1, 0)/sqrt 2) and
+    base_link -> base_link_frd (FLU to FRD: 180 deg about x) at start, and advertises /tf, with or
+    without local_position/tf/send (reference/mavros-1.21-px4-api.txt: one publisher each)."""
+    rig = Rig(*node.PLUGINS)
+    [static] = rig.published('/tf_static')
+    got = {(t.header.frame_id, t.child_frame_id): (t.transform.rotation.x, t.transform.rotation.y,
+                                                    t.transform.rotation.z, t.transform.rotation.w)
+           for t in static.transforms}
+    half = math.sqrt(0.5)
+    assert set(got) == {('map', 'map_ned'), ('odom', 'odom_ned'), ('base_link', 'base_link_frd')}
+    assert same_rotation(got['map', 'map_ned'], (half, half, 0, 0)) and same_rotation(got['odom', 'odom_ned'],
+                                                                                    (half, half, 0, 0))
+    assert same_rotation(got['base_link', 'base_link_frd'], (1, 0, 0, 0))
+    assert all(t.header.stamp == rospy.Time(1000) and t.transform.translation.x == 0 for t in static.transforms)
 
 
 # -- sys_status --------------------------------------------------------------------------------

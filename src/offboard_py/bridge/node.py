@@ -17,12 +17,13 @@ from offboard_py.master import await_master_from_argv
 from offboard_py.mavlink_link import MavlinkLink, UrlError
 from offboard_py.bridge import (altitude, battery, command, diagnostics, global_position, home_position, imu,
                                 local_position, mavlink_passthrough, mission, param, rc_io, setpoint,
-                                setpoint_attitude, statustext, sys_status, sys_time, vfr_hud)
+                                setpoint_attitude, statustext, sys_status, sys_time, tf_frames, vfr_hud)
 
 PLUGINS = (sys_status.SysStatus, sys_time.SysTime, command.Command, setpoint.Setpoint, local_position.LocalPosition,
            global_position.GlobalPosition, altitude.Altitude, imu.Imu, home_position.HomePosition,
            param.Param, mission.Mission, battery.Battery, statustext.StatusTexts, vfr_hud.VfrHud, rc_io.RcIo,
-           setpoint_attitude.SetpointAttitude, mavlink_passthrough.MavlinkPassthrough, diagnostics.Diagnostics)
+           setpoint_attitude.SetpointAttitude, mavlink_passthrough.MavlinkPassthrough, diagnostics.Diagnostics,
+           tf_frames.TfFrames)
 
 
 class RospyEndpoints:
