@@ -10,7 +10,9 @@ pymavlink's or of the process's environment.
 
 import ast
 import filecmp
+import logging
 import os
+import re
 import subprocess
 import sys
 
@@ -19,9 +21,10 @@ from pymavlink.dialects.v20 import development as pymavlink_development
 
 import offboard_py.dialect
 from offboard_py import wire
-from offboard_py.dialect import mavlink
+from offboard_py.dialect import PYMAVLINK_TESTED, check_pymavlink_version, mavlink, pymavlink_version
 from offboard_py.dialects import generate
 
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 # id, CRC_EXTRA, payload length, {field: wire offset} from the C headers
 C_HEADERS = {
@@ -49,6 +52,9 @@ def _values(cls):
     return values
 
 
+@pytest.mark.skipif(pymavlink_version() != PYMAVLINK_TESTED,
+                    reason='the committed dialect is mavgen %s\'s output; pymavlink %s is installed'
+                    % (PYMAVLINK_TESTED, pymavlink_version()))
 def test_committed_module_is_what_mavgen_makes_of_the_xml(tmp_path):
     """The module cannot drift from its XML (nor be edited by hand): regenerated, it is the same file."""
     fresh = generate.generate(str(tmp_path))
@@ -184,3 +190,24 @@ def test_generated_module_is_python_3_8():
                 and isinstance(node.value, ast.Name) and node.value.id in ('list', 'dict', 'tuple', 'set', 'type')]
     assert generics == []
 
+
+def test_an_untested_pymavlink_gets_one_warning_naming_both_versions(monkeypatch, caplog):
+    import pymavlink
+    said = []
+    monkeypatch.setattr(pymavlink, '__version__', PYMAVLINK_TESTED)
+    assert check_pymavlink_version(said.append) is None and said == []
+    monkeypatch.setattr(pymavlink, '__version__', '2.4.50')
+    message = check_pymavlink_version(said.append)
+    assert said == [message] and 'pymavlink 2.4.50 is installed' in message and 'tested with pymavlink %s' % (
+        PYMAVLINK_TESTED) in message
+    with caplog.at_level(logging.WARNING, logger='offboard_py'):
+        check_pymavlink_version()
+    assert [r.getMessage() for r in caplog.records if r.name == 'offboard_py'] == [message]
+
+
+def test_the_tested_version_is_the_one_run_installs_and_package_xml_names():
+    with open(os.path.join(REPO, 'run')) as f:
+        pins = re.findall(r'pymavlink==([0-9.]+)', f.read())
+    with open(os.path.join(REPO, 'package.xml')) as f:
+        named = re.findall(r'Tested with pymavlink ([0-9.]+[0-9])', f.read())
+    assert pins == [PYMAVLINK_TESTED] and named == [PYMAVLINK_TESTED]

@@ -23,15 +23,18 @@ import struct
 import sys
 import threading
 import time
+import warnings
 
 from pymavlink import mavutil
 
 from offboard_py import px4_modes
-from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, check_pymavlink_version, mavlink
 from offboard_py.simclock import SimClock, parse_speed, speed_from_env
 from offboard_py.testing import ports
 from offboard_py.testing.processes import OutputProcess
 from offboard_py.testing.typemask import POSITION_AND_YAW
+
+check_pymavlink_version(warnings.warn)  # in pytest's warnings summary when pymavlink is not the tested one
 
 # The simulator's command line, wherever offboard_py is installed (devel space, install space, a venv)
 SIM_COMMAND = (sys.executable, '-c', 'from offboard_py.sim.main import main; raise SystemExit(main())')
