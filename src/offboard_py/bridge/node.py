@@ -13,6 +13,7 @@ import rospy
 
 from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
+from offboard_py.dialect import check_pymavlink_version
 from offboard_py.master import await_master_from_argv
 from offboard_py.mavlink_link import MavlinkLink, UrlError
 from offboard_py.bridge import (altitude, battery, command, diagnostics, global_position, home_position, imu,
@@ -111,6 +112,7 @@ def main():
         handler.setFormatter(logging.Formatter('%(message)s'))
         logging.getLogger('offboard_py').addHandler(handler)
         logging.getLogger('offboard_py').setLevel(logging.INFO)
+        check_pymavlink_version()  # to /rosout, through the handler above
         cfg = read_config(lambda name, default: rospy.get_param('~' + name, default))
         link, gcs = open_links(cfg)
         bridge = Bridge(cfg, link, RospyEndpoints(), PLUGINS, gcs=gcs, clock=ros_clock())

@@ -11,6 +11,7 @@ import signal
 import sys
 import time
 
+from offboard_py.dialect import check_pymavlink_version
 from offboard_py.signing import SigningKeyError
 from offboard_py.simclock import SimClock, SpeedError, parse_speed
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
@@ -132,6 +133,7 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     args = parser().parse_args([a for a in argv if ':=' not in a])
     logging.basicConfig(level=args.log_level.upper(), format='[sim_px4 %d] %%(message)s' % args.instance)
+    check_pymavlink_version()
     if not 10.0 <= args.rate <= 1000.0:
         logging.error('--rate must be 10..1000 Hz, got %g', args.rate)
         return 2

@@ -16,7 +16,6 @@ test reads the same at any speed. Wall-clock limits (starting the process, the k
 socket buffer) stay in wall seconds.
 """
 
-import os
 import select
 import signal
 import socket
@@ -24,16 +23,18 @@ import struct
 import sys
 import threading
 import time
+import warnings
 
-os.environ.setdefault('MAVLINK20', '1')  # mavutil picks MAVLink 1 unless told; PX4 speaks 2
-from pymavlink import mavutil  # noqa: E402
+from pymavlink import mavutil
 
-from offboard_py import px4_modes  # noqa: E402
-from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink  # noqa: E402
-from offboard_py.simclock import SimClock, parse_speed, speed_from_env  # noqa: E402
-from offboard_py.testing import ports  # noqa: E402
-from offboard_py.testing.processes import OutputProcess  # noqa: E402
-from offboard_py.testing.typemask import POSITION_AND_YAW  # noqa: E402
+from offboard_py import px4_modes
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, check_pymavlink_version, mavlink
+from offboard_py.simclock import SimClock, parse_speed, speed_from_env
+from offboard_py.testing import ports
+from offboard_py.testing.processes import OutputProcess
+from offboard_py.testing.typemask import POSITION_AND_YAW
+
+check_pymavlink_version(warnings.warn)  # in pytest's warnings summary when pymavlink is not the tested one
 
 # The simulator's command line, wherever offboard_py is installed (devel space, install space, a venv)
 SIM_COMMAND = (sys.executable, '-c', 'from offboard_py.sim.main import main; raise SystemExit(main())')
@@ -102,8 +103,15 @@ class Client:
         self.target = ports.system_id(instance)
         port = ports.bridge_port(instance) if port is None else port
         self.conn = mavutil.mavlink_connection('udpin:127.0.0.1:%d' % port,
-                                               dialect='development',
                                                source_system=system_id, source_component=component_id)
+        # mavutil's dialect= can only name a module in pymavlink.dialects (and, unless MAVLINK20 is in the
+        # environment, its MAVLink 1 flavour), and it switches mavutil's dialect for the whole process.
+        # The connection speaks through its public `mav` instead: our MAVLink 2 dialect, put there as
+        # pymavlink does itself when it changes protocol (mavfile.auto_mavlink_version); with
+        # WIRE_PROTOCOL_VERSION 2.0, mavutil never swaps it back.
+        self.conn.mav = mavlink.MAVLink(self.conn, srcSystem=system_id, srcComponent=component_id)
+        self.conn.mav.robust_parsing = self.conn.robust_parsing
+        self.conn.WIRE_PROTOCOL_VERSION = mavlink.WIRE_PROTOCOL_VERSION
         self.conn.port.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
         self.mav = self.conn.mav
         self.lock = threading.Lock()
