@@ -18,7 +18,7 @@ import logging
 import math
 import select
 
-from offboard_py import param_codec, px4_modes, wire
+from offboard_py import param_codec, px4_modes, sitl_ports, wire
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
 from offboard_py.simclock import SimClock
@@ -33,8 +33,6 @@ from offboard_py.sim.geo import LocalFrame
 
 log = logging.getLogger('offboard_py.sim')
 
-SITL_LOCAL_PORT, SITL_REMOTE_PORT = 14580, 14540
-GCS_LOCAL_PORT, GCS_REMOTE_PORT = 18570, 14550  # PX4 SITL's GCS link: 18570+N, to QGroundControl's 14550
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
 
 PARAM_LIST_BATCH = 20  # PARAM_VALUEs per loop step while answering PARAM_REQUEST_LIST
@@ -54,7 +52,7 @@ class SimulatedPx4:
         # Every timer, rate and time_boot_ms runs on this clock: speed x real time
         self.clock = SimClock(1.0) if clock is None else clock
         clock = self.clock
-        self.system_id = instance + 1
+        self.system_id = sitl_ports.system_id(instance)
         self.rate_hz = rate_hz
         self.steps_per_wakeup = steps_per_wakeup
         now = clock()
@@ -64,8 +62,8 @@ class SimulatedPx4:
             self.params.parse_override(text)
         self.frame = LocalFrame(*home)
         self.flight = Flight(self.params, self.frame, self.t(now), ready_delay_s=ready_delay_s, rc=rc)
-        local_port = SITL_LOCAL_PORT + instance if local_port is None else local_port
-        remote_port = SITL_REMOTE_PORT + instance if remote_port is None else remote_port
+        local_port = sitl_ports.fcu_port(instance) if local_port is None else local_port
+        remote_port = sitl_ports.bridge_port(instance) if remote_port is None else remote_port
         # Both links keep the first sender they hear from, as PX4's UDP links do (mavlink_link._lock_partner)
         self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1,
                                 name='onboard', lock_remote=True, clock=clock, pack_datagrams=pack_datagrams)
@@ -75,8 +73,8 @@ class SimulatedPx4:
         self.links = [self.link]
         self.gcs_link = None
         if gcs:
-            gcs_port = GCS_LOCAL_PORT + instance if gcs_port is None else gcs_port
-            gcs_remote_port = GCS_REMOTE_PORT if gcs_remote_port is None else gcs_remote_port
+            gcs_port = sitl_ports.gcs_port(instance) if gcs_port is None else gcs_port
+            gcs_remote_port = sitl_ports.GCS_REMOTE_PORT if gcs_remote_port is None else gcs_remote_port
             try:
                 self.gcs_link = MavlinkLink((bind_host, gcs_port), (bind_host, gcs_remote_port), self.system_id, 1,
                                             name='GCS', lock_remote=True, clock=clock,

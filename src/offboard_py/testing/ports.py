@@ -14,13 +14,15 @@ Who uses which N:
           two_vehicles.test takes 0 and 1 (multi_uav.launch numbers vehicles from 0)
   20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
   38, 39  a .test file run by hand without `instance:=N` (its default)
-The .test files spell the same formula in $(eval ...), as roslaunch cannot import it.
+The formula itself is offboard_py.sitl_ports's (PX4 SITL's); this module checks the instance
+range and hands out instances and extra ports.
 """
 
 import socket
 
-FCU_PORT_BASE = 14580
-BRIDGE_PORT_BASE = 14540
+from offboard_py import sitl_ports
+from offboard_py.sitl_ports import BRIDGE_PORT_BASE, FCU_PORT_BASE
+
 EXTRA_PORT_BASE = 15000
 EXTRA_PORTS_PER_INSTANCE = 10
 MAX_INSTANCE = 39
@@ -34,17 +36,17 @@ def _check(instance):
 
 
 def system_id(instance):
-    return _check(instance) + 1
+    return sitl_ports.system_id(_check(instance))
 
 
 def fcu_port(instance):
     """UDP port the simulated PX4 of this instance binds."""
-    return FCU_PORT_BASE + _check(instance)
+    return sitl_ports.fcu_port(_check(instance))
 
 
 def bridge_port(instance):
     """UDP port the bridge (or a ground station) of this instance binds."""
-    return BRIDGE_PORT_BASE + _check(instance)
+    return sitl_ports.bridge_port(_check(instance))
 
 
 def extra_port(instance, k):
