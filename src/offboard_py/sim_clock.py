@@ -11,7 +11,9 @@ gazebo_ros publishes), on a grid of that period, never backwards.
 The guard: a tick published more than `~max_lag` simulated seconds late means this
 machine cannot keep the ROS side up with the vehicles at this speed; the node logs an error
 saying so (and how late), and /sim_clock/lag_max (a parameter) carries the worst lag seen
-for tests to check.
+for tests to check. `~fault_lag` (simulated seconds, default 0) is a fault for testing what
+watches the clock: /clock then runs that far behind the vehicles, as on a machine that cannot
+keep up, whatever the machine.
 """
 
 import sys
@@ -74,6 +76,7 @@ def main():
         speed = parse_speed(rospy.get_param('~speed', 1.0), 'parameter ~speed')
         period_s = _read_float('~period', DEFAULT_PERIOD_S, lambda v: 0.0005 <= v <= 1.0, 'seconds in 0.0005..1')
         max_lag_s = _read_float('~max_lag', DEFAULT_MAX_LAG_S, lambda v: v > 0.0, 'seconds > 0')
+        fault_lag_s = _read_float('~fault_lag', 0.0, lambda v: 0.0 <= v <= 3600.0, 'seconds in 0..3600')
     except SpeedError as err:
         rospy.logfatal('%s', err)
         return 2
@@ -82,7 +85,10 @@ def main():
     if not rospy.get_param('/use_sim_time', False):
         rospy.logwarn('sim_clock: /use_sim_time is not set: ROS nodes will not follow /clock')
     clock = SimClock(speed)
-    ticks = ClockTicks(period_s, clock.now())
+    if fault_lag_s:
+        rospy.logwarn('sim_clock: fault_lag %g s: /clock runs that far behind the vehicles (a test fault)',
+                      fault_lag_s)
+    ticks = ClockTicks(period_s, clock.now() - fault_lag_s)
     publisher = rospy.Publisher('/clock', Clock, queue_size=10)
     rospy.set_param(LAG_PARAM, 0.0)
     rospy.loginfo('sim_clock: /clock at %gx real time, a tick every %g s of simulated time', speed, period_s)
@@ -90,7 +96,7 @@ def main():
     reported_lag_s = 0.0
     try:
         while not rospy.core.is_shutdown():
-            now_s = clock.now()
+            now_s = clock.now() - fault_lag_s
             due = ticks.due(now_s)
             if due is None:
                 time.sleep(clock.wall_s(ticks.next_s - now_s))
