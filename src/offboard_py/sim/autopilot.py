@@ -17,6 +17,7 @@ import collections
 import logging
 import math
 import select
+import struct
 
 from offboard_py import param_codec, px4_modes, wire
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
@@ -302,26 +303,41 @@ class SimulatedPx4:
         return self.mav.param_value_encode(name.encode('ascii'), param_codec.encode(d.type, self.params[name]),
                                            d.type, len(self.params), self.params.index(name))
 
+    def _hash_check(self):
+        """The list's closing PARAM_VALUE, as PX4 sends it: _HASH_CHECK, UINT32, index 65535, not
+        counted in param_count (reference/px4-sitl-measured.md, "Turn 3 recordings", section 1)."""
+        return self.mav.param_value_encode(
+            sim_params.HASH_CHECK_NAME.encode('ascii'),
+            struct.unpack('<f', struct.pack('<I', sim_params.HASH_CHECK_VALUE))[0],  # bytewise, as PX4
+            mavlink.MAV_PARAM_TYPE_UINT32, len(self.params), sim_params.HASH_CHECK_INDEX)
+
     def _on_param_request_list(self, msg):
-        """The whole table on the requesting link, as PX4, paced by the loop (PARAM_LIST_BATCH a
-        step): all at once they overflow a client's socket buffer (a pymavlink client on loopback
-        got 785 of 887). 887 take about 0.45 s; PX4 SITL's take under 1 s. A new request for the
-        same link starts the list again, as PX4 does."""
+        """The whole table on the requesting link, then _HASH_CHECK, as PX4, paced by the loop
+        (PARAM_LIST_BATCH a step): all at once they overflow a client's socket buffer (a pymavlink
+        client on loopback got 785 of 887). 889 take about 0.45 s; PX4 SITL's take under 1 s. A new
+        request for the same link starts the list again, as PX4 does."""
         if self._for_me(msg):
-            self.param_lists[self.reply_link] = collections.deque(self.params.names)
+            self.param_lists[self.reply_link] = collections.deque(self.params.names + [sim_params.HASH_CHECK_NAME])
 
     def _send_param_lists(self):
         for link, pending in list(self.param_lists.items()):
-            link.send_many([self._param_value(pending.popleft()) for _ in range(min(PARAM_LIST_BATCH, len(pending)))])
+            names = [pending.popleft() for _ in range(min(PARAM_LIST_BATCH, len(pending)))]
+            link.send_many([self._hash_check() if name == sim_params.HASH_CHECK_NAME else self._param_value(name)
+                            for name in names])
             if not pending:
                 del self.param_lists[link]
 
     def _on_param_request_read(self, msg):
+        """By name (param_index -1), or by index (the same name for the same index); an index
+        past the table (888) gets no answer, as on PX4."""
         if not self._for_me(msg):
+            return
+        if msg.param_index < 0 and msg.param_id == sim_params.HASH_CHECK_NAME:
+            self._reply(self._hash_check())
             return
         name = msg.param_id if msg.param_index < 0 else (
             self.params.names[msg.param_index] if msg.param_index < len(self.params) else None)
-        if name in self.params.names:
+        if name in self.params:
             self._reply(self._param_value(name))
 
     def _on_param_set(self, msg):
