@@ -109,7 +109,8 @@ def load_table(path=TABLE_PATH, ranges=RANGES):
                 if int(index) != len(table):
                     raise ValueError('index %s where %d was due' % (index, len(table)))
             except (KeyError, ValueError) as err:
-                raise ValueError('%s:%d: expected NAME<TAB>INT32|REAL32<TAB>number<TAB>index (%s)' % (path, line_no, err))
+                raise ValueError('%s:%d: expected NAME<TAB>INT32|REAL32<TAB>number<TAB>index (%s)'
+                                 % (path, line_no, err))
             table.append(Param(name, param_type, default, *ranges.get(name, (None, None))))
     return tuple(table)
 
