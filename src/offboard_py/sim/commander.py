@@ -82,7 +82,6 @@ class Commander:
         self.has_mission = False   # a valid mission is loaded, kept current by the flight stack
         self.armed = False
         self.armed_s = None
-        self.disarmed_s = None
         self.takeoff_detected = False
         self.landed_s = None
         self.failsafe = False
@@ -228,7 +227,7 @@ class Commander:
         self._say(mavlink.MAV_SEVERITY_INFO, 'Armed')
 
     def _disarm(self, why, now_s):
-        self.armed, self.disarmed_s = False, now_s
+        self.armed = False
         logged_s = max(0.0, now_s - self.log_start_s) if self.log_start_s is not None else 0.0
         self.log_stop_s = now_s + log_close_s(logged_s)
         self.takeoff_detected, self.landed_s = False, None
