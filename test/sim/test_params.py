@@ -1,10 +1,14 @@
 """The simulated PX4's parameter protocol over UDP, as PX4 SITL answers it (no ROS).
 
 PX4 SITL answers PARAM_REQUEST_LIST with all its parameters (param_count 888, the index of each
-in name order) in under 1 s on loopback, while its streams go on; it echoes every PARAM_SET
-with the value in force (shared/reference/px4-sitl-measured.md). Seconds are simulated ones.
+in name order) in under 1 s on loopback, while its streams go on, and ends the list with
+_HASH_CHECK (UINT32, index 65535, not counted); it reads a parameter by index with the same name
+as in the list, and says nothing for index 888; it echoes every PARAM_SET with the value in force
+(reference/px4-sitl-measured.md, "Turn 3 recordings", section 1; the names, types, values and
+indices are reference/px4-sitl-params-indexed.tsv). Seconds are simulated ones.
 """
 
+import os
 import struct
 
 from offboard_py import param_codec
@@ -14,6 +18,11 @@ from offboard_py.sim.params import DEFINITIONS
 FAST = ('--ready-delay', '1')
 INT32, REAL32 = mavlink.MAV_PARAM_TYPE_INT32, mavlink.MAV_PARAM_TYPE_REAL32
 TABLE = {p.name: (i, p) for i, p in enumerate(DEFINITIONS)}
+REFERENCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'reference',
+                         'px4-sitl-params-indexed.tsv')
+PX4_NAMES = [line.split('\t')[0] for line in open(REFERENCE)]  # in index order
+HASH_CHECK = ('_HASH_CHECK', mavlink.MAV_PARAM_TYPE_UINT32, 65535, 0xBD8B05F8)  # the recording's
+READ_BY_INDEX = list(range(19)) + [444, 887]  # the indices PX4 was asked for one by one
 LIST_BOUND_S = 10.0        # PX4: under 1 s; ours is paced through its 100 Hz loop
 ATTITUDE_GAP_BOUND_S = 0.1  # ATTITUDE is 100 Hz: the loop must not stall while the list goes out
 
@@ -34,17 +43,19 @@ def test_param_request_list_sends_the_whole_table_while_the_streams_go_on(start_
     t0 = client.now()
     client.send(client.mav.param_request_list_encode(client.target, 1))
 
-    def indices():
-        got = param_values_since(client, start)
-        return got and len({m.param_index for _, m in got}) >= got[0][1].param_count
-    client.wait_for(indices, LIST_BOUND_S, 'the whole list (%d PARAM_VALUE)' % len(DEFINITIONS))
+    def finished():
+        return any(m.param_id == HASH_CHECK[0] for _, m in param_values_since(client, start))
+    client.wait_for(finished, LIST_BOUND_S, 'the whole list (%d PARAM_VALUE and _HASH_CHECK)' % len(PX4_NAMES))
     got = param_values_since(client, start)
     elapsed = got[-1][0] - t0
     print('PARAM_REQUEST_LIST: %d PARAM_VALUE in %.3f s' % (len(got), elapsed))
-    assert {m.param_count for _, m in got} == {len(DEFINITIONS)}, 'param_count is the table\'s length'
-    by_index = {m.param_index: m for _, m in got}
-    assert sorted(by_index) == list(range(len(DEFINITIONS)))
-    assert [by_index[i].param_id for i in range(len(DEFINITIONS))] == [p.name for p in DEFINITIONS], 'PX4\'s order'
+    assert {m.param_count for _, m in got} == {len(PX4_NAMES)} == {888}, 'param_count as PX4\'s'
+    *params, (_, last) = got
+    assert (last.param_id, last.param_type, last.param_index) == HASH_CHECK[:3], 'the list ends with _HASH_CHECK'
+    assert struct.unpack('<I', struct.pack('<f', last.param_value))[0] == HASH_CHECK[3]
+    by_index = {m.param_index: m for _, m in params}
+    assert len(params) == len(by_index) == 888, 'each parameter once'
+    assert [by_index[i].param_id for i in range(888)] == PX4_NAMES, 'PX4\'s names at PX4\'s indices'
     for name, value in (('SYS_AUTOSTART', 10040), ('MPC_XY_VEL_MAX', 12.0), ('RTL_RETURN_ALT', 30.0)):
         index, p = TABLE[name]
         m = by_index[index]
@@ -55,6 +66,20 @@ def test_param_request_list_sends_the_whole_table_while_the_streams_go_on(start_
     gaps = [b - a for a, b in zip([t0] + attitude, attitude + [got[-1][0]])]
     print('ATTITUDE during the list: %d, longest gap %.3f s' % (len(attitude), max(gaps)))
     assert max(gaps) <= ATTITUDE_GAP_BOUND_S, 'ATTITUDE stalled %.3f s while the list went out' % max(gaps)
+
+
+def test_param_request_read_by_index_names_what_the_list_names_and_888_gets_no_answer(start_sim):
+    _, client = start_sim(*FAST)
+    for index in READ_BY_INDEX:
+        start = len(client.history)
+        client.send(client.mav.param_request_read_encode(client.target, 1, b'', index))
+        value = client.wait_for(lambda: next((m for _, m in param_values_since(client, start)), None), 2.0,
+                                'PARAM_VALUE for index %d' % index)
+        assert (value.param_id, value.param_index) == (PX4_NAMES[index], index)
+    start = len(client.history)
+    client.send(client.mav.param_request_read_encode(client.target, 1, b'', 888))
+    client.sleep(1.0)
+    assert not param_values_since(client, start), 'PX4 does not answer index 888'
 
 
 def test_param_set_is_echoed_for_unmodelled_and_modelled_parameters(start_sim):

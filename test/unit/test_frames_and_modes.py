@@ -1,6 +1,7 @@
 """Frame conventions (as mavros's ftf) and the PX4 mode table, offline."""
 
 import math
+import os
 
 import pytest
 
@@ -73,3 +74,48 @@ def test_base_mode_flags_as_px4():
     assert px4_modes.base_mode_flags('AUTO.LOITER', False) == 29
     assert px4_modes.base_mode_flags('POSCTL', False) == 1 | 16 | 64
     assert px4_modes.base_mode_flags('ACRO', True) == 1 | 64 | 128
+
+
+# -- AVAILABLE_MODES: the table PX4 SITL answered (reference/px4-sitl-measured.md, section 3) ----------
+
+MEASURED = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__)))),
+                        'reference', 'px4-sitl-measured.md')
+
+
+def recorded_available_modes():
+    """[(mode_index, custom_mode, PX4 mode, standard_mode, properties, mode_name)] from the recording's
+    table; the 19..26 row expands to its eight external modes."""
+    text = open(MEASURED).read()
+    section = text[text.index('### 3. AVAILABLE_MODES'):text.index('### 4.')]
+    rows = []
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip('|').split('|')]
+        if len(cells) != 6 or not cells[1].startswith('0x'):
+            continue
+        standard, properties = int(cells[3].split()[0]), int(cells[4])
+        name = '' if cells[5] == '(empty)' else cells[5]
+        if '..' in cells[0]:
+            first, last = (int(n) for n in cells[0].split('..'))
+            start = int(cells[1].split('..')[0], 16)
+            for n in range(last - first + 1):
+                rows.append((first + n, start + (n << 24), 'AUTO.EXTERNAL%d' % (n + 1), standard, properties, name))
+        else:
+            rows.append((int(cells[0]), int(cells[1], 16), cells[2], standard, properties, name))
+    return rows
+
+
+def test_available_modes_are_px4_sitls_26_in_its_order():
+    recorded = recorded_available_modes()
+    assert [r[0] for r in recorded] == list(range(1, 27)), 'the recording: mode_index 1..26'
+    ours = [(i, m.custom_mode, m.label, m.standard_mode, m.properties, m.mode_name)
+            for i, m in enumerate(px4_modes.AVAILABLE_MODES, 1)]
+    assert ours == recorded
+    assert all((m.standard_mode == 0) == bool(m.mode_name) for m in px4_modes.AVAILABLE_MODES), \
+        'mode_name empty exactly where standard_mode is not 0'
+
+
+def test_current_mode_standard_mode_follows_the_table():
+    by_label = {r[2]: r for r in recorded_available_modes()}
+    for label in ('AUTO.LOITER', 'OFFBOARD', 'AUTO.RTL', 'AUTO.LAND', 'AUTO.TAKEOFF', 'AUTO.MISSION', 'POSCTL'):
+        assert px4_modes.standard_mode(px4_modes.encode(label)) == by_label[label][3], label
+    assert px4_modes.standard_mode(0x7F0000) == 0, 'a mode PX4 does not list is non-standard'

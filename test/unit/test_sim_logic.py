@@ -125,7 +125,7 @@ def test_land_then_back_to_user_mode_and_auto_disarm():
     t = fly(c, 0.0, 15.0)
     assert c.commander.nav_mode == 'AUTO.LOITER' and abs(c.vehicle.height() - 2.5) < 0.35
     c.request_mode('AUTO.LAND', t)
-    assert c.request_arming(False, False, t) == DENIED, 'not landed'
+    assert c.request_arming(False, False, t) == TEMPORARILY_REJECTED, 'not landed (PX4: TRANSITION_DENIED)'
     t = fly(c, t, 20.0)
     assert not c.commander.armed and c.commander.nav_mode == 'AUTO.LOITER'
 
@@ -206,11 +206,14 @@ def test_current_mode_carries_the_standard_mode():
     from offboard_py.sim.telemetry import TelemetryBuilder
     f = make()
     builder = TelemetryBuilder(M.MAVLink(None), LocalFrame(47.0, 8.0, 500.0), f.params)
-    for mode, standard in (('AUTO.MISSION', M.MAV_STANDARD_MODE_MISSION), ('AUTO.LAND', M.MAV_STANDARD_MODE_LAND),
-                           ('AUTO.TAKEOFF', M.MAV_STANDARD_MODE_TAKEOFF), ('OFFBOARD', M.MAV_STANDARD_MODE_NON_STANDARD)):
+    # PX4's numbers on the wire (reference/px4-sitl-measured.md, "Turn 3 recordings", section 3: MISSION 6,
+    # LAND 7, TAKEOFF 8; pymavlink 2.4.49's development enum numbers these one higher)
+    for mode, standard, custom in (('AUTO.MISSION', 6, 0x04040000), ('AUTO.LAND', 7, 0x06040000),
+                                   ('AUTO.TAKEOFF', 8, 0x02040000), ('OFFBOARD', 0, 0x00060000),
+                                   ('AUTO.LOITER', 0, 0x03040000)):
         f.request_mode(mode, 1.0)
         msg = builder.current_mode(f.status(1.0))
-        assert (msg.standard_mode, msg.custom_mode) == (standard, f.status(1.0).custom_mode), mode
+        assert (msg.standard_mode, msg.custom_mode, msg.intended_custom_mode) == (standard, custom, custom), mode
 
 
 def test_force_disarm_magic_in_the_air():
@@ -219,7 +222,7 @@ def test_force_disarm_magic_in_the_air():
     f.request_mode('OFFBOARD', 0.0)
     f.request_arming(True, False, 0.0)
     t = fly(f, 0.0, 8.0, position_setpoint())
-    assert f.request_arming(False, False, t) == DENIED
+    assert f.request_arming(False, False, t) == TEMPORARILY_REJECTED
     assert f.request_arming(False, True, t) == ACCEPTED and not f.commander.armed
     assert ARM_DISARM_FORCE_MAGIC == 21196
 
@@ -294,3 +297,30 @@ def test_drag_holds_a_long_leg_near_ten_metres_a_second():
         t = fly(f, t, 0.1, position_setpoint(n=300.0, d=-20.0))
         peak = max(peak, math.hypot(*f.vehicle.velocity[:2]))
     assert 9.5 <= peak <= 11.0
+
+
+def test_disarm_is_refused_once_the_land_detector_no_longer_says_maybe_landed():
+    """reference/px4-sitl-measured.md, "Turn 3 recordings", section 6: OFFBOARD with setpoint z = -2, a disarm
+    0.93 s after the arm is accepted; while the takeoff climbs it is TEMPORARILY_REJECTED and the vehicle stays
+    armed and climbs; with setpoint z = 0 (it stays on the ground) a disarm 2.2 s after the arm is accepted.
+    PX4's rule (Commander::disarm): refused unless landed or maybe landed, or forced."""
+    for disarm_after_s, down, accepted in ((0.93, -2.0, True), (2.2, 0.0, True)):
+        f = make()
+        f.on_offboard_setpoint(position_setpoint(d=down), 0.0)
+        f.request_mode('OFFBOARD', 0.0)
+        assert f.request_arming(True, False, 0.0) == ACCEPTED
+        t = fly(f, 0.0, disarm_after_s, position_setpoint(d=down))
+        assert f.request_arming(False, False, t) == ACCEPTED and not f.commander.armed, (disarm_after_s, down)
+    f = make()
+    f.on_offboard_setpoint(position_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = 0.0
+    while f.vehicle.maybe_landed:
+        t = fly(f, t, 0.01, position_setpoint())
+        assert t < 3.0, 'the takeoff never lifted the land detector'
+    print('maybe landed until %.2f s after the arm (PX4: before 1.9 s)' % t)
+    assert f.request_arming(False, False, t) == TEMPORARILY_REJECTED and f.commander.armed
+    z = f.vehicle.position[2]
+    t = fly(f, t, 3.0, position_setpoint())
+    assert f.commander.armed and f.vehicle.position[2] < z - 0.5, 'it stayed armed and climbed'

@@ -1,13 +1,14 @@
 """The simulated PX4's telemetry, offline: streams and rates, SYS_STATUS and HEARTBEAT words,
 the battery, and messages built from a flight Status (sim.telemetry, sim.flight)."""
 
+import json
 import math
+import os
 
 import pytest
 
 from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input, telemetry
-from offboard_py.sim.commander import DISARM_SETTLE_S
 from offboard_py.sim.flight import HOVER_THRUST, Battery, Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.params import ParamStore
@@ -16,6 +17,7 @@ from offboard_py.testing.typemask import POSITION_AND_YAW
 M = mavlink
 ACCEPTED = M.MAV_RESULT_ACCEPTED
 FRAME = LocalFrame(47.0, 8.0, 500.0)
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 
 
 def make(ready_delay_s=0.0, rc=False, **overrides):
@@ -58,11 +60,16 @@ def test_onboard_streams_at_px4_rates():
     assert telemetry.ONBOARD_RATES_HZ['SYS_STATUS'] == 5.0 and telemetry.ONBOARD_RATES_HZ['ATTITUDE'] == 100.0
 
 
-def test_gcs_streams_are_px4_normal_mode_and_slower_than_onboard():
-    gcs, onboard = telemetry.GCS_RATES_HZ, telemetry.ONBOARD_RATES_HZ
-    assert (gcs['ATTITUDE'], gcs['GLOBAL_POSITION_INT'], gcs['SYS_STATUS'], gcs['VFR_HUD']) == (15.0, 5.0, 1.0, 4.0)
-    assert all(gcs[name] <= onboard[name] for name in gcs if name in onboard)
-    assert 'HIGHRES_IMU' not in gcs and 'TIMESYNC' not in gcs
+def test_gcs_streams_are_px4_sitls_gcs_link_as_measured():
+    """reference/px4-sitl-gcs-census.json: every stream within 10 % (EVENT and CURRENT_EVENT_SEQUENCE are not
+    simulated: test/sim/test_census.py), none it does not send (RC_CHANNELS only with an RC link)."""
+    census = json.load(open(os.path.join(REPO, 'reference', 'px4-sitl-gcs-census.json')))['rates_hz']
+    gcs = telemetry.GCS_RATES_HZ
+    omitted = {'EVENT', 'CURRENT_EVENT_SEQUENCE'}
+    wrong = ['%s %r, PX4 %r' % (name, gcs.get(name), hz) for name, hz in sorted(census.items())
+             if name not in omitted and abs(gcs.get(name, 0.0) - hz) > 0.1 * hz]
+    assert not wrong, wrong
+    assert set(gcs) - set(census) == {'RC_CHANNELS'}
 
 
 def test_message_interval_for_any_message_the_simulator_builds():
@@ -113,8 +120,55 @@ def test_readiness_failures_and_disarm_in_status():
     assert f.request_arming(True, False, 7.0) == ACCEPTED
     assert f.status(7.0).system_status == M.MAV_STATE_ACTIVE
     assert f.request_arming(False, False, 8.0) == ACCEPTED
-    assert f.status(8.0 + DISARM_SETTLE_S / 2).system_status == M.MAV_STATE_UNINIT, 'UNINIT again after a disarm'
-    assert f.status(8.0 + DISARM_SETTLE_S).system_status == M.MAV_STATE_STANDBY
+    # reference/px4-sitl-measured.md, "Turn 3 recordings", section 6: straight back to STANDBY, PREARM_CHECK kept
+    for t in (8.0, 8.01, 9.0, 12.0):
+        assert (f.status(t).system_status, f.status(t).prearm_ok) == (M.MAV_STATE_STANDBY, True), t
+
+
+# After a disarm (section 6): the logger's bit leaves SYS_STATUS present/enabled 3.9 s, 4.1 s and 2.2 s after
+# disarms 2.9 s, 2.2 s and 0.93 s after the arm command, and comes back about 0.3 s after an arming.
+LOGGER_CASES = ((2.9, 3.9), (2.2, 4.1), (0.93, 2.2))
+
+
+def logging_bits(msg):
+    return (msg.onboard_control_sensors_present & M.MAV_SYS_STATUS_LOGGING,
+            msg.onboard_control_sensors_enabled & M.MAV_SYS_STATUS_LOGGING,
+            msg.onboard_control_sensors_health & M.MAV_SYS_STATUS_LOGGING)
+
+
+def test_the_logger_bit_leaves_after_a_disarm_and_comes_back_after_arming_as_px4s():
+    bit = M.MAV_SYS_STATUS_LOGGING
+    for armed_s, gone_s in LOGGER_CASES:
+        f = make(ready_delay_s=0.0)
+        b = builder(f)
+        assert f.request_arming(True, False, 10.0) == ACCEPTED and f.request_arming(False, False, 11.0) == ACCEPTED
+        assert f.request_arming(True, False, 20.0) == ACCEPTED  # a log of its own, started at this arming
+        assert logging_bits(b.build('SYS_STATUS', f.status(20.1), 20.1))[:2] == (0, 0), 'not yet logging'
+        assert logging_bits(b.build('SYS_STATUS', f.status(20.35), 20.35)) == (bit, bit, bit), 'back 0.3 s after arming'
+        disarm_s = 20.0 + armed_s
+        assert f.request_arming(False, False, disarm_s) == ACCEPTED
+        t = disarm_s
+        while logging_bits(b.build('SYS_STATUS', f.status(t), t))[0]:
+            t += 0.01
+            assert t < disarm_s + 10.0, 'the logger never stopped'
+        assert abs((t - disarm_s) - gone_s) <= 0.1 * gone_s, 'gone %.2f s after the disarm, PX4 %.1f s' % (
+            t - disarm_s, gone_s)
+        msg = b.build('SYS_STATUS', f.status(t), t)
+        assert logging_bits(msg) == (0, 0, bit), 'present and enabled lose it, health keeps it'
+        assert msg.onboard_control_sensors_health == 0x1320C83F and msg.onboard_control_sensors_present == 0x0200402F
+        assert f.status(t).system_status == M.MAV_STATE_STANDBY
+
+
+def test_offboard_selected_without_setpoints_fails_the_prearm_checks_then_passes_when_they_resume():
+    """Section 6: with OFFBOARD selected and the setpoints stopped, system_status 0 and bit 28 cleared
+    about 1.0 s (COM_OF_LOSS_T) after the last setpoint; back as soon as setpoints resume."""
+    f = make(ready_delay_s=0.0)
+    f.on_offboard_setpoint(hover_setpoint(), 5.0)
+    assert f.request_mode('OFFBOARD', 5.0) == ACCEPTED
+    assert (f.status(5.9).system_status, f.status(5.9).prearm_ok) == (M.MAV_STATE_STANDBY, True)
+    assert (f.status(6.1).system_status, f.status(6.1).prearm_ok) == (M.MAV_STATE_UNINIT, False)
+    f.on_offboard_setpoint(hover_setpoint(), 8.0)
+    assert (f.status(8.0).system_status, f.status(8.0).prearm_ok) == (M.MAV_STATE_STANDBY, True)
 
 
 def test_sys_status_message_follows_the_prearm_verdict():
@@ -166,8 +220,8 @@ def test_every_stream_builds_on_the_ground_and_in_the_air():
 
 
 def test_rc_channels_only_with_an_rc_link():
-    """PX4 sends RC_CHANNELS (20 Hz onboard, 5 Hz to a ground station) only while RC input updates."""
-    assert telemetry.ONBOARD_RATES_HZ['RC_CHANNELS'] == 20.0 and telemetry.GCS_RATES_HZ['RC_CHANNELS'] == 5.0
+    """PX4 sends RC_CHANNELS (20 Hz on both SITL links: px4-rc.mavlink) only while RC input updates."""
+    assert telemetry.ONBOARD_RATES_HZ['RC_CHANNELS'] == 20.0 and telemetry.GCS_RATES_HZ['RC_CHANNELS'] == 20.0
     assert builder(make(rc=False)).build('RC_CHANNELS', make(rc=False).status(1.0), 1.0) is None
     f = make(rc=True)
     msg = builder(f).build('RC_CHANNELS', f.status(1.0), 1.0)
@@ -381,12 +435,35 @@ class _Stats(dict):
         return 0
 
 
+def frame_v2(seq, system, component, msg_id=0):
+    """A MAVLink 2 frame's header as LinkCounters reads it (payload and CRC do not matter to it)."""
+    return bytes([0xFD, 9, 0, 0, seq, system, component, msg_id & 0xFF, 0, 0]) + bytes(11)
+
+
+def test_messages_lost_are_counted_as_px4_counts_them():
+    """reference/px4-sitl-measured.md, "Turn 3 recordings", section 4: a sender whose sequence numbers
+    advance loses nothing; one that always sends seq 0 makes PX4 count 254 lost per message."""
+    clean, stuck = telemetry.LinkCounters(_Stats(), 0.0), telemetry.LinkCounters(_Stats(), 0.0)
+    for n in range(600):
+        clean.on_frame(frame_v2(n & 0xFF, 1, 191))
+        clean.on_frame(frame_v2(n & 0xFF, 1, 240))  # another component: its own sequence
+        stuck.on_frame(frame_v2(0, 1, 191))
+    assert clean.lost == 0
+    assert stuck.lost == 254 * 599, 'each message after the first'
+    v1 = telemetry.LinkCounters(_Stats(), 0.0)
+    for seq in (10, 12):  # MAVLink 1: seq at byte 2, system 3, component 4
+        v1.on_frame(bytes([0xFE, 9, seq, 1, 1, 0]) + bytes(11))
+    assert v1.lost == 1
+
+
 def test_link_node_status_is_the_links_own_as_px4_fills_it():
     stats = _Stats()
     counters = telemetry.LinkCounters(stats, 10.0)
     b = builder(make())
     stats.update(bytes_sent=24000, bytes_received=900, messages_sent=400, received=30, other_system=2,
-                 dropped=3, bad_frames=70000)
+                 bad_frames=70000)
+    for seq in (0, 1, 2, 6):  # system 1 component 191: 3, 4 and 5 lost
+        counters.on_frame(frame_v2(seq, 1, 191))
     msg = b.link_node_status(counters, 10.5)  # less than a second since the window began: no rate yet
     assert (msg.tx_rate, msg.rx_rate) == (0, 0)
     assert msg.timestamp == 10500000, 'us since boot, as PX4 sends hrt_absolute_time()'

@@ -17,6 +17,7 @@ import collections
 import logging
 import math
 import select
+import struct
 
 from offboard_py import param_codec, px4_modes, sitl_ports, wire
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
@@ -35,6 +36,9 @@ log = logging.getLogger('offboard_py.sim')
 
 DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
 
+# PX4 SITL's ACKs come a few ms after the request and after what it sent for it (PROTOCOL_VERSION,
+# AVAILABLE_MODES: about 4 ms later; reference/px4-sitl-measured.md, "Turn 3 recordings", sections 3-4)
+ACK_DELAY_S = 0.004
 PARAM_LIST_BATCH = 20  # PARAM_VALUEs per loop step while answering PARAM_REQUEST_LIST
 ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
@@ -91,6 +95,9 @@ class SimulatedPx4:
             self.streams[self.gcs_link] = telemetry.Streams(self.t(now), telemetry.GCS_RATES_HZ)
         self.telemetry = telemetry.TelemetryBuilder(self.mav, self.frame, self.params)
         self.link_counters = {link: telemetry.LinkCounters(link.stats, self.t(now)) for link in self.links}
+        for link, counters in self.link_counters.items():
+            link.on_frames(counters.on_frame)  # LINK_NODE_STATUS.messages_lost, counted as PX4 counts it
+        self.deferred = []  # (clock time due, link, message): answers that PX4 sends a few ms later
         self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
@@ -199,8 +206,25 @@ class SimulatedPx4:
                 handler(msg, self.t())
         return handle
 
-    def _ack(self, msg, command, result):
-        self._reply(self.mav.command_ack_encode(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+    def _ack(self, msg, command, result, delay_s=ACK_DELAY_S):
+        """COMMAND_ACK on the request's link, `delay_s` (simulated) after now: PX4's commander and
+        streams answer on the MAVLink module's next cycles, a few ms after what the request sent."""
+        ack = self.mav.command_ack_encode(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent())
+        if delay_s <= 0:
+            self._reply(ack)
+        else:
+            self.deferred.append((self.clock() + delay_s, self.reply_link, ack))
+
+    def _send_deferred(self, now=None):
+        """What is due of the deferred answers (their clock times), in their order."""
+        if not self.deferred:
+            return
+        now = self.clock() if now is None else now
+        due = [d for d in self.deferred if d[0] <= now]
+        if due:
+            self.deferred = [d for d in self.deferred if d[0] > now]
+            for _, link, msg in due:
+                link.send(msg)
 
     def _on_set_mode(self, msg):
         if msg.target_system != self.system_id:
@@ -216,8 +240,9 @@ class SimulatedPx4:
         if not self._for_me(msg):
             return
         if msg.command == mavlink.MAV_CMD_DO_SET_MODE:
-            # PX4's MAVLink module acknowledges at once, then the commander gives its own result
-            self._ack(msg, msg.command, ACCEPTED)
+            # PX4's MAVLink module acknowledges at once, then the commander gives its own result:
+            # two COMMAND_ACK(176) 1-8 ms apart (reference/px4-sitl-measured.md, section 4)
+            self._ack(msg, msg.command, ACCEPTED, delay_s=0.0)
         handler = self.commands.get(msg.command)
         result = handler(msg, self.t()) if handler else UNSUPPORTED
         self._ack(msg, msg.command, result)
@@ -259,11 +284,31 @@ class SimulatedPx4:
     def _cmd_request_message(self, msg, now):
         """PX4 answers DENIED for what it cannot send (an unknown id, home before there is one)."""
         msg_id = REQUESTED_BY_COMMAND.get(msg.command, msg.param1)
+        if msg_id == mavlink.MAVLINK_MSG_ID_AVAILABLE_MODES:
+            return self._available_modes(msg.param2)
         name = telemetry.NAMES_BY_ID.get(int(msg_id)) if math.isfinite(msg_id) else None
         reply = self._build(name, self.reply_link, now) if name else None
         if reply is None:
             return DENIED
         self._reply(reply)
+        return ACCEPTED
+
+    def _available_modes(self, which):
+        """AVAILABLE_MODES as PX4's stream answers a request (reference/px4-sitl-measured.md, section
+        3): param2 0 all of them, N mode N only, each in a message of its own, before the ACK. PX4's
+        MavlinkStreamAvailableModes::request_message refuses N above the number of modes (DENIED,
+        nothing sent) and takes a negative N without sending anything (ACCEPTED); a NaN names no mode
+        (DENIED)."""
+        if not math.isfinite(which):
+            return DENIED
+        index, modes = int(round(which)), px4_modes.AVAILABLE_MODES
+        if index > len(modes):
+            return DENIED
+        chosen = range(1, len(modes) + 1) if index == 0 else [index] if index > 0 else []
+        for i in chosen:
+            mode = modes[i - 1]
+            self._reply(self.mav.available_modes_encode(len(modes), i, mode.standard_mode, mode.custom_mode,
+                                                        mode.properties, mode.mode_name.encode('ascii')))
         return ACCEPTED
 
     def _build(self, name, link, now):
@@ -300,26 +345,41 @@ class SimulatedPx4:
         return self.mav.param_value_encode(name.encode('ascii'), param_codec.encode(d.type, self.params[name]),
                                            d.type, len(self.params), self.params.index(name))
 
+    def _hash_check(self):
+        """The list's closing PARAM_VALUE, as PX4 sends it: _HASH_CHECK, UINT32, index 65535, not
+        counted in param_count (reference/px4-sitl-measured.md, "Turn 3 recordings", section 1)."""
+        return self.mav.param_value_encode(
+            sim_params.HASH_CHECK_NAME.encode('ascii'),
+            struct.unpack('<f', struct.pack('<I', sim_params.HASH_CHECK_VALUE))[0],  # bytewise, as PX4
+            mavlink.MAV_PARAM_TYPE_UINT32, len(self.params), sim_params.HASH_CHECK_INDEX)
+
     def _on_param_request_list(self, msg):
-        """The whole table on the requesting link, as PX4, paced by the loop (PARAM_LIST_BATCH a
-        step): all at once they overflow a client's socket buffer (a pymavlink client on loopback
-        got 785 of 887). 887 take about 0.45 s; PX4 SITL's take under 1 s. A new request for the
-        same link starts the list again, as PX4 does."""
+        """The whole table on the requesting link, then _HASH_CHECK, as PX4, paced by the loop
+        (PARAM_LIST_BATCH a step): all at once they overflow a client's socket buffer (a pymavlink
+        client on loopback got 785 of 887). 889 take about 0.45 s; PX4 SITL's take under 1 s. A new
+        request for the same link starts the list again, as PX4 does."""
         if self._for_me(msg):
-            self.param_lists[self.reply_link] = collections.deque(self.params.names)
+            self.param_lists[self.reply_link] = collections.deque(self.params.names + [sim_params.HASH_CHECK_NAME])
 
     def _send_param_lists(self):
         for link, pending in list(self.param_lists.items()):
-            link.send_many([self._param_value(pending.popleft()) for _ in range(min(PARAM_LIST_BATCH, len(pending)))])
+            names = [pending.popleft() for _ in range(min(PARAM_LIST_BATCH, len(pending)))]
+            link.send_many([self._hash_check() if name == sim_params.HASH_CHECK_NAME else self._param_value(name)
+                            for name in names])
             if not pending:
                 del self.param_lists[link]
 
     def _on_param_request_read(self, msg):
+        """By name (param_index -1), or by index (the same name for the same index); an index
+        past the table (888) gets no answer, as on PX4."""
         if not self._for_me(msg):
+            return
+        if msg.param_index < 0 and msg.param_id == sim_params.HASH_CHECK_NAME:
+            self._reply(self._hash_check())
             return
         name = msg.param_id if msg.param_index < 0 else (
             self.params.names[msg.param_index] if msg.param_index < len(self.params) else None)
-        if name in self.params.names:
+        if name in self.params:
             self._reply(self._param_value(name))
 
     def _on_param_set(self, msg):
@@ -403,6 +463,7 @@ class SimulatedPx4:
         appended to out[link] to go out with the rest of the wake-up's cycles, or sent at once
         when `out` is None. What the flight stack says (modes, texts, mission progress) goes out
         at once."""
+        self._send_deferred()
         now = self.t() if slot_s is None else slot_s
         self.flight.step(now, dt)
         self.transfer.tick(now)
@@ -459,9 +520,11 @@ class SimulatedPx4:
             log.info('simulated time at %gx real time', speed)
         while self.running and (end_s is None or self.clock() < end_s):
             wake_s = next_s + (batch - 1) * period
-            for fd, _ in poller.poll(max(0.0, wake_s - self.clock()) / speed * 1000.0):
+            until_s = min([wake_s] + [d[0] for d in self.deferred])
+            for fd, _ in poller.poll(max(0.0, until_s - self.clock()) / speed * 1000.0):
                 by_fd[fd].receive()
             now = self.clock()
+            self._send_deferred(now)
             if now < wake_s:
                 continue
             if now - next_s > 0.25 * speed:  # stalled a quarter second (suspended, overloaded): resynchronise

@@ -3,10 +3,14 @@
 Rules, as current PX4 applies them (../shared/reference/px4-behaviour.md):
 - Boots in AUTO.LOITER, disarmed; arming is refused for `ready_delay_s` while the
   estimator settles ("Ready for takeoff" after about 5 s on PX4 SITL).
-- HEARTBEAT's system_status as PX4 main reports it (px4-sitl-measured.md): UNINIT while the
-  pre-flight checks do not pass (before ready, with an injected failure, and for
-  DISARM_SETTLE_S after a disarm), STANDBY disarmed and ready, ACTIVE armed, CRITICAL in a
-  failsafe. `prearm_ok()` is the same verdict, for SYS_STATUS's PREARM_CHECK health bit.
+- HEARTBEAT's system_status as PX4 main reports it (reference/px4-sitl-measured.md, "Turn 3
+  recordings", section 6): UNINIT while a pre-arm check fails (before ready, with an injected
+  failure, OFFBOARD selected without the offboard signal, a manual mode without RC, AUTO.MISSION
+  without a mission), STANDBY disarmed otherwise (straight after a disarm too), ACTIVE armed,
+  CRITICAL in a failsafe. `prearm_ok()` is the same verdict, for SYS_STATUS's PREARM_CHECK health bit.
+- The logger (SDLOG_MODE 1: from boot until the first disarm, then from each arming to its
+  disarm): `logging()` says whether it runs, for SYS_STATUS's MAV_SYS_STATUS_LOGGING present and
+  enabled bits; it starts LOG_START_S after an arming and stops log_close_s() after a disarm.
 - Two modes are tracked, as PX4 does: the mode the user chose (`user_mode`, shown as
   CURRENT_MODE.intended_custom_mode) and the mode flying now (`nav_mode`), which differs
   during a failsafe. After a disarm the vehicle returns to the last mode the user chose
@@ -20,8 +24,9 @@ Rules, as current PX4 applies them (../shared/reference/px4-behaviour.md):
   instead (default Return). The vehicle never goes back to OFFBOARD by itself.
 - Arming: refused while not ready, with an injected failure, in OFFBOARD without the
   signal, in a manual mode without RC, in AUTO.MISSION without a mission, in AUTO.LAND
-  or AUTO.RTL; DENIED while not landed. Disarming in the air is DENIED. PX4's force
-  magic (21196) skips the checks.
+  or AUTO.RTL; DENIED while not landed. Disarming is TEMPORARILY_REJECTED unless the land
+  detector says landed or maybe landed (PX4's Commander::disarm; an OFFBOARD takeoff loses
+  maybe-landed as its thrust rises). PX4's force magic (21196) skips the checks.
 - COM_DISARM_PRFLT: armed this long with no takeoff -> disarm. COM_DISARM_LAND: landed
   this long after a flight -> disarm. A mission that ends with a landing disarms as soon as it
   is down (measured on PX4 SITL: 0.02-0.41 s after landed).
@@ -49,10 +54,20 @@ RCL_ACTIONS = {0: 'AUTO.LOITER', 1: 'AUTO.LOITER', 2: 'AUTO.RTL', 3: 'AUTO.LAND'
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
-# PX4 SITL reports UNINIT "again after a disarm" (measured) until its arming checks have run
-# again. We model that as a short settle after each disarm; it changes what is reported
-# (system_status, PREARM_CHECK), not whether arming is accepted.
-DISARM_SETTLE_S = 1.5  # long enough for the 1 Hz HEARTBEAT to show it, as measured
+# The logger's bit in SYS_STATUS (reference/px4-sitl-measured.md, "Turn 3 recordings", section 6):
+# back about 0.3 s after arming; gone 3.9 s, 4.1 s and 2.2 s after disarms that ended logs of
+# about 2.6 s (or since boot), 1.9 s and 0.6 s. PX4's LoggerChecks counts the logger as running
+# while its last status is under 3 s old; how long the logger still writes after a disarm grows
+# with what it has buffered. One rule reproduces the three within 10 %: the bit goes
+# LOG_CLOSE_BASE_S + LOG_CLOSE_PER_S x (seconds logged) after the disarm, at most LOG_CLOSE_MAX_S
+# (2.26, 3.78 and 4.0 s for the three cases).
+LOG_START_S = 0.3
+LOG_CLOSE_BASE_S, LOG_CLOSE_PER_S, LOG_CLOSE_MAX_S = 1.5, 1.2, 4.0
+
+
+def log_close_s(logged_s):
+    """Seconds from a disarm until the logger's bit goes, for a log that ran `logged_s`."""
+    return min(LOG_CLOSE_BASE_S + LOG_CLOSE_PER_S * logged_s, LOG_CLOSE_MAX_S)
 
 
 class Commander:
@@ -63,10 +78,10 @@ class Commander:
         self.ready_announced = False
         self.rc = rc
         self.landed = True         # the land detector's word, kept current by the flight stack
+        self.maybe_landed = True   # ... and its maybe-landed stage
         self.has_mission = False   # a valid mission is loaded, kept current by the flight stack
         self.armed = False
         self.armed_s = None
-        self.disarmed_s = None
         self.takeoff_detected = False
         self.landed_s = None
         self.failsafe = False
@@ -74,6 +89,7 @@ class Commander:
         self.events = []
         self.offboard_s = None
         self.user_mode = self.nav_mode = self.fallback_mode = 'AUTO.LOITER'
+        self.log_start_s, self.log_stop_s = now_s, None  # SDLOG_MODE 1: logging from boot
 
     # -- what the link reports ---------------------------------------------------------------
 
@@ -86,9 +102,13 @@ class Commander:
         return now_s - self.boot_s >= self.ready_delay_s
 
     def prearm_ok(self, now_s):
-        """The pre-flight (arming) checks pass: ready, no injected failure, not just disarmed."""
-        settling = self.disarmed_s is not None and now_s - self.disarmed_s < DISARM_SETTLE_S
-        return self.ready(now_s) and not self.failures and not settling
+        """The pre-arm checks pass (PX4 runs them armed or not; a disarm leaves them passing)."""
+        return self._prearm_failure(now_s)[0] is None
+
+    def logging(self, now_s):
+        """The logger runs (SYS_STATUS's LOGGING present and enabled bits)."""
+        return (self.log_start_s is not None and now_s >= self.log_start_s
+                and (self.log_stop_s is None or now_s < self.log_stop_s))
 
     def offboard_signal(self, now_s):
         return self.offboard_s is not None and now_s - self.offboard_s <= self.params['COM_OF_LOSS_T']
@@ -165,13 +185,25 @@ class Commander:
             return ACCEPTED
         if not self.armed:
             return ACCEPTED
-        if not force and not self.landed:
+        if not force and not (self.landed or self.maybe_landed):
+            # PX4's Commander::disarm: TRANSITION_DENIED, which the command answers TEMPORARILY_REJECTED
             self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Disarming denied: not landed')
-            return DENIED
+            return TEMPORARILY_REJECTED
         self._disarm('commanded', now_s)
         return ACCEPTED
 
     def _arming_refusal(self, now_s):
+        reason, result = self._prearm_failure(now_s)
+        if reason:
+            return reason, result
+        if self.nav_mode in NOT_ARMABLE:
+            return 'mode %s is not armable' % self.nav_mode, TEMPORARILY_REJECTED
+        if not self.landed:
+            return 'vehicle not landed', DENIED
+        return None, ACCEPTED
+
+    def _prearm_failure(self, now_s):
+        """(reason, MAV_RESULT) of the first failing pre-arm check, (None, ACCEPTED) when all pass."""
         if not self.ready(now_s):
             return 'system not ready (estimator initialising)', TEMPORARILY_REJECTED
         if self.failures:
@@ -183,20 +215,21 @@ class Commander:
             return 'no manual control', TEMPORARILY_REJECTED
         if self.nav_mode == 'AUTO.MISSION' and not self.has_mission:
             return 'no valid mission', TEMPORARILY_REJECTED
-        if self.nav_mode in NOT_ARMABLE:
-            return 'mode %s is not armable' % self.nav_mode, TEMPORARILY_REJECTED
-        if not self.landed:
-            return 'vehicle not landed', DENIED
         return None, ACCEPTED
 
     def _arm(self, now_s):
         self.armed, self.armed_s = True, now_s
+        if not self.logging(now_s):  # a log still closing goes on; otherwise a new one starts
+            self.log_start_s = now_s + LOG_START_S
+        self.log_stop_s = None
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(True, 'commanded'))
         self._say(mavlink.MAV_SEVERITY_INFO, 'Armed')
 
     def _disarm(self, why, now_s):
-        self.armed, self.disarmed_s = False, now_s
+        self.armed = False
+        logged_s = max(0.0, now_s - self.log_start_s) if self.log_start_s is not None else 0.0
+        self.log_stop_s = now_s + log_close_s(logged_s)
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(False, why))
         self._say(mavlink.MAV_SEVERITY_INFO, 'Disarmed (%s)' % why)

@@ -80,6 +80,7 @@ class Status(NamedTuple):
     rc: bool = False               # an RC link is simulated (sticks centred)
     rtl: tuple = None              # while AUTO.RTL flies: (its phase, the return altitude as local z)
     body_rates: tuple = (0.0, 0.0, 0.0)  # FRD, rad/s: what a gyro reads
+    logging: bool = True           # the logger runs (SYS_STATUS's LOGGING present/enabled bits)
 
     @property
     def custom_mode(self):
@@ -178,7 +179,7 @@ class Flight:
             self._route(now_s)
         v.step(dt, sp, now_s)
         self.battery.step(dt, c.armed)
-        c.landed = v.landed
+        c.landed, c.maybe_landed = v.landed, v.maybe_landed
         if self.navigator.mission.landed_at_end and c.nav_mode == 'AUTO.MISSION':
             c.mission_landed(now_s)
         c.check_landing(now_s)
@@ -242,4 +243,4 @@ class Flight:
                       c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
-                      self.home, c.rc, rtl, v.body_rates)
+                      self.home, c.rc, rtl, v.body_rates, c.logging(now_s))

@@ -1,17 +1,15 @@
 """PX4's parameters in the simulated autopilot: PX4 SITL's whole table, typed, range-checked
 where the simulator models the parameter, with PX4's wire encoding.
 
-The table is px4_params.tsv beside this module: name, type (INT32/REAL32) and value of every
-parameter PX4 SITL (main, about 1.18-dev, sihsim_quadx, fresh parameters) sends for a
-PARAM_REQUEST_LIST, in PX4's order (sorted by name; PARAM_VALUE's index is the position here).
-869 rows are one recorded pass of real PX4 SITL (shared/reference/px4-sitl-params.tsv). PX4
-counts 888; the recording lacks the head of the list, and 18 of those were taken from PX4's
-sources: the attitude estimator switch ATT_EN (checked by the start-up script beside LPE_EN and
-EKF2_EN), battery 1 of the battery library (BAT1_CAPACITY, BAT1_N_CELLS 4 as SITL's start-up
-script sets it, BAT1_R_INTERNAL, BAT1_SOURCE, BAT1_V_CHARGED, BAT1_V_EMPTY) and its shared
-thresholds (BAT_AVRG_CURRENT, BAT_CRIT_THR, BAT_EMERGEN_THR, BAT_LOW_THR), and the first
-accelerometer's calibration (CAL_ACC0_ID 1310988 as SITL sets it, CAL_ACC0_PRIO, _ROT, _XOFF,
-_XSCALE, _YOFF, _YSCALE). The 888th is not identified, so the list has 887.
+The table is px4_params.tsv beside this module: name, type (INT32/REAL32), value and PARAM_VALUE
+index of all 888 parameters real PX4 SITL (main 02e73e3b6f, sihsim_quadx, fresh parameters) sends
+for a PARAM_REQUEST_LIST, in index order, which is the names' byte order (ASPD_SCALE_1 is index 0):
+a copy of reference/px4-sitl-params-indexed.tsv (reference/px4-sitl-measured.md, "Turn 3
+recordings", section 1). EKF2_MAG_DECL comes from PX4's world magnetic model and read 3.4056 and
+3.40561 in two runs; the table keeps the second.
+PX4 ends a full list with _HASH_CHECK (UINT32, index 65535, not counted in param_count): PX4's
+CRC32 over the names and values; this simulator sends the value recorded with PX4's defaults
+(HASH_CHECK_VALUE), whatever was changed since.
 
 Defaults are PX4 SITL's values, among them COM_OF_LOSS_T 1.0 s; the tutorial's 0.5 s is one
 override away (`sim_px4.py COM_OF_LOSS_T=0.5`).
@@ -21,7 +19,6 @@ module checks. INT32 parameters take integers only, and travel bytewise in PARAM
 float field, as on PX4 (offboard_py.param_codec).
 A change takes effect at once: the other modules read values here every time.
 """
-
 import math
 import os
 from collections import namedtuple
@@ -34,6 +31,8 @@ Param = namedtuple('Param', 'name type default minimum maximum')  # minimum, max
 TABLE_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'px4_params.tsv')
 TYPES = {'INT32': mavlink.MAV_PARAM_TYPE_INT32, 'REAL32': mavlink.MAV_PARAM_TYPE_REAL32}
 INT32_MIN, INT32_MAX = -2 ** 31, 2 ** 31 - 1
+# The list's last PARAM_VALUE (reference/px4-sitl-measured.md, section 1): name, index, value
+HASH_CHECK_NAME, HASH_CHECK_INDEX, HASH_CHECK_VALUE = '_HASH_CHECK', 0xFFFF, 0xBD8B05F8
 
 # [minimum, maximum] of the parameters the simulator models (commander, navigator, vehicle), from
 # PX4's parameter definitions; PX4 refuses values outside these for the ones its modules check.
@@ -96,18 +95,22 @@ RANGES = {
 
 
 def load_table(path=TABLE_PATH, ranges=RANGES):
-    """The Params of a table file (NAME<TAB>INT32|REAL32<TAB>value; '#' starts a comment line), in its order."""
+    """The Params of a table file (NAME<TAB>INT32|REAL32<TAB>value<TAB>index, the index being the
+    row's position; '#' starts a comment line), in its order."""
     table = []
     with open(path) as f:
         for line_no, line in enumerate(f, 1):
             if not line.strip() or line.startswith('#'):
                 continue
             try:
-                name, type_name, text = line.rstrip('\n').split('\t')
+                name, type_name, text, index = line.rstrip('\n').split('\t')
                 param_type = TYPES[type_name]
                 default = int(text) if param_codec.is_integer(param_type) else float(text)
+                if int(index) != len(table):
+                    raise ValueError('index %s where %d was due' % (index, len(table)))
             except (KeyError, ValueError) as err:
-                raise ValueError('%s:%d: expected NAME<TAB>INT32|REAL32<TAB>number (%s)' % (path, line_no, err))
+                raise ValueError('%s:%d: expected NAME<TAB>INT32|REAL32<TAB>number<TAB>index (%s)'
+                                 % (path, line_no, err))
             table.append(Param(name, param_type, default, *ranges.get(name, (None, None))))
     return tuple(table)
 

@@ -1,8 +1,8 @@
 """Telemetry of the simulated PX4: PX4's streams and rates per link, and their messages.
 
 `Streams` keeps one interval per message a link sends (`ONBOARD_RATES_HZ`: PX4's "onboard"
-mode, as measured on PX4 SITL's offboard-API link; `GCS_RATES_HZ`: PX4's "normal" mode, the
-mode of SITL's ground-station link) and says which are due. MAV_CMD_SET_MESSAGE_INTERVAL
+mode, as measured on PX4 SITL's offboard-API link; `GCS_RATES_HZ`: SITL's ground-station link,
+as measured) and says which are due. MAV_CMD_SET_MESSAGE_INTERVAL
 changes an interval for any message the simulator can build, 0 restores the link's default
 (which may be off), -1 stops it. HEARTBEAT is fixed at 1 Hz, as on PX4 (setting it answers
 FAILED).
@@ -16,6 +16,7 @@ EVENT / CURRENT_EVENT_SEQUENCE (its event interface, whose texts live in PX4's o
 import math
 import time
 
+from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim.navigator import rtl_time_estimate
 from offboard_py.sim.vehicle import quaternion_from_thrust
@@ -56,36 +57,38 @@ ONBOARD_RATES_HZ = {
     'TIME_ESTIMATE_TO_TARGET': 0.5,  # configured at 1 Hz, sent on each of the navigator's 2 s updates
     'RC_CHANNELS': 20.0,  # only with an RC link (sim_px4.py --rc): PX4 sends it when input_rc updates
 }
-# PX4's MAVLINK_MODE_NORMAL (mavlink_main.cpp, configure_streams_to_default), the streams of it
-# we can build; MISSION_CURRENT comes from PX4's mission manager on every link at 1 Hz
+# PX4 SITL's GCS link (UDP 18570 -> 14550) as measured (reference/px4-sitl-gcs-census.json, reference/
+# px4-sitl-measured.md, "Turn 3 recordings", section 5): PX4's "normal" mode with the seven streams that
+# px4-rc.mavlink sets with `mavlink stream -r 50` (49.5 measured), SYS_STATUS and EXTENDED_SYS_STATE at 1 Hz;
+# no HIGHRES_IMU, ODOMETRY, TIMESYNC or SYSTEM_TIME. RC_CHANNELS (20 Hz there) only with an RC link (--rc).
 GCS_RATES_HZ = {
     'HEARTBEAT': 1.0,
-    'ATTITUDE': 15.0,
-    'ATTITUDE_QUATERNION': 10.0,
-    'GLOBAL_POSITION_INT': 5.0,
+    'ATTITUDE': 50.0,
+    'ATTITUDE_QUATERNION': 50.0,
+    'ATTITUDE_TARGET': 50.0,
+    'GLOBAL_POSITION_INT': 50.0,
+    'LOCAL_POSITION_NED': 50.0,
+    'POSITION_TARGET_LOCAL_NED': 50.0,
+    'SERVO_OUTPUT_RAW': 50.0,
     'GPS_RAW_INT': 5.0,
     'VFR_HUD': 4.0,
-    'ATTITUDE_TARGET': 2.0,
-    'POSITION_TARGET_LOCAL_NED': 1.5,
     'SYS_STATUS': 1.0,
-    'ALTITUDE': 1.0,
     'EXTENDED_SYS_STATE': 1.0,
-    'LOCAL_POSITION_NED': 1.0,
+    'ALTITUDE': 1.0,
     'MISSION_CURRENT': 1.0,
     'SCALED_PRESSURE': 1.0,
-    'SERVO_OUTPUT_RAW': 1.0,
+    'LINK_NODE_STATUS': 1.0,
     'OPEN_DRONE_ID_LOCATION': 1.0,
     'OPEN_DRONE_ID_SYSTEM': 1.0,
-    'LINK_NODE_STATUS': 1.0,
-    'HOME_POSITION': 0.5,
     'BATTERY_STATUS': 0.5,
     'CURRENT_MODE': 0.5,
-    'TIME_ESTIMATE_TO_TARGET': 0.5,
     'DISTANCE_SENSOR': 0.5,
     'ESTIMATOR_STATUS': 0.5,
+    'HOME_POSITION': 0.5,
+    'TIME_ESTIMATE_TO_TARGET': 0.5,
     'PING': 0.1,
     'VIBRATION': 0.1,
-    'RC_CHANNELS': 5.0,
+    'RC_CHANNELS': 20.0,
 }
 FIXED_RATE = frozenset(('HEARTBEAT',))
 # Streams PX4 sends only when their data updates, so no interval makes them faster than this (s)
@@ -108,12 +111,8 @@ CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | mavlink.MAV_PROT
                 | mavlink.MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
                 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY)
 PX4_VERSION = 0xFF  # flight_sw_version of PX4 SITL's dev build: no release number, type byte 0xFF
+MAVLINK_LIBRARY_HASH = bytes.fromhex('6521d1aee97ea451')  # PROTOCOL_VERSION.library_version_hash, wire order
 UID_BASE = int.from_bytes(b'PX4SITL\0', 'big')  # + system id: 64 bits, stable per instance
-# MAV_STANDARD_MODE for CURRENT_MODE
-STANDARD_MODES = {'POSCTL': mavlink.MAV_STANDARD_MODE_POSITION_HOLD, 'ALTCTL': mavlink.MAV_STANDARD_MODE_ALTITUDE_HOLD,
-                  'AUTO.RTL': mavlink.MAV_STANDARD_MODE_RETURN_HOME, 'AUTO.MISSION': mavlink.MAV_STANDARD_MODE_MISSION,
-                  'AUTO.LAND': mavlink.MAV_STANDARD_MODE_LAND, 'AUTO.TAKEOFF': mavlink.MAV_STANDARD_MODE_TAKEOFF}
-
 # SYS_STATUS as PX4 SITL (SIH quadrotor) reports it: present 0x0300402F, enabled 0x0301402F,
 # health 0x1320C83F with PREARM_CHECK while the arming checks pass
 SENSORS_PRESENT = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
@@ -121,6 +120,7 @@ SENSORS_PRESENT = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATU
                    | mavlink.MAV_SYS_STATUS_SENSOR_GPS | mavlink.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
                    | mavlink.MAV_SYS_STATUS_LOGGING | mavlink.MAV_SYS_STATUS_SENSOR_BATTERY)
 SENSORS_ENABLED = SENSORS_PRESENT | mavlink.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+LOGGING_BITS = mavlink.MAV_SYS_STATUS_LOGGING
 SENSORS_HEALTHY = (mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
                    | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
                    | mavlink.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE | mavlink.MAV_SYS_STATUS_SENSOR_GPS
@@ -337,14 +337,19 @@ class TelemetryBuilder:
                                          st.custom_mode, st.system_status, 3)
 
     def current_mode(self, st):
-        return self.mav.current_mode_encode(STANDARD_MODES.get(st.nav_mode, mavlink.MAV_STANDARD_MODE_NON_STANDARD),
-                                            st.custom_mode, st.intended_custom_mode)
+        """PX4's CURRENT_MODE: the standard mode of the mode flying (PX4's numbering, px4_modes), its
+        custom_mode, and the mode the user chose (reference/px4-sitl-measured.md, section 3)."""
+        return self.mav.current_mode_encode(px4_modes.standard_mode(st.custom_mode), st.custom_mode,
+                                            st.intended_custom_mode)
 
     def _current_mode(self, st, now_s):
         return self.current_mode(st)
 
     def _sys_status(self, st, now_s):
-        return self.mav.sys_status_encode(SENSORS_PRESENT, SENSORS_ENABLED, sensors_health(st.prearm_ok),
+        # the logger's bit leaves present and enabled while it is stopped; health keeps it (as PX4 SITL)
+        logging = LOGGING_BITS if st.logging else 0
+        return self.mav.sys_status_encode((SENSORS_PRESENT & ~LOGGING_BITS) | logging,
+                                          (SENSORS_ENABLED & ~LOGGING_BITS) | logging, sensors_health(st.prearm_ok),
                                           LOAD_PERMILLE, int(round(st.battery_voltage * 1000)), BATTERY_CURRENT_CA,
                                           int(round(st.battery_remaining * 100)), 0, 0, 0, 0, 0, 0)
 
@@ -506,7 +511,7 @@ class TelemetryBuilder:
         return self.mav.link_node_status_encode(
             self.time_usec(now_s), 0, 0, int(counters.tx_rate), int(counters.rx_rate), c['bad_frames'] & 0xFFFF,
             0, 0, c['messages_sent'] & 0xFFFFFFFF, (c['received'] + c['other_system']) & 0xFFFFFFFF,
-            c['dropped'] & 0xFFFFFFFF)
+            counters.lost & 0xFFFFFFFF)
 
     def _ping(self, st, now_s):
         self.ping_seq = (self.ping_seq + 1) & 0xFFFFFFFF
@@ -543,9 +548,10 @@ class TelemetryBuilder:
                                                  0, 0, self.uid)
 
     def _protocol_version(self, st, now_s):
-        """As PX4's Mavlink::send_protocol_version(): MAVLink 2 (200), from 1 to 2; no spec hash (PX4:
-        "TODO"); the library hash is PX4's mavlink submodule's commit, unknown here: zeros."""
-        return self.mav.protocol_version_encode(200, 100, 200, [0] * 8, [0] * 8)
+        """As PX4 SITL answers (reference/px4-sitl-measured.md, "Turn 3 recordings", section 4):
+        MAVLink 2 (200), min 100, max 203, no spec hash (all zero), and the library hash of the
+        mavlink submodule PX4 was built with (its commit as a little-endian uint64, wire order)."""
+        return self.mav.protocol_version_encode(200, 100, 203, [0] * 8, list(MAVLINK_LIBRARY_HASH))
 
     def statustext(self, severity, text):
         return self.mav.statustext_encode(severity, text.encode('ascii', 'replace')[:50])
@@ -555,7 +561,12 @@ class LinkCounters:
     """A link's byte rates as PX4's mavlink module keeps them (telemetry_status tx/rx_rate_avg): the
     bytes of a window of (about) a second over its length, a new window each time. PX4's main loop
     closes a window every second whoever reads it; here the window closes when the rates are read
-    at least WINDOW_S after it opened (a 1 Hz LINK_NODE_STATUS reads them once a window)."""
+    at least WINDOW_S after it opened (a 1 Hz LINK_NODE_STATUS reads them once a window).
+
+    `lost` counts what the senders' sequence numbers say was lost, per (system, component), as PX4's
+    MavlinkReceiver::update_rx_stats does (`on_frame` sees every valid frame the link receives):
+    a sequence number behind the expected one counts 255 - expected + seq, so a sender that always
+    sends seq 0 costs 254 a message (reference/px4-sitl-measured.md, "Turn 3 recordings", section 4)."""
 
     WINDOW_S = 0.999  # a second, less the float error of a 1 Hz stream's slot times
 
@@ -563,6 +574,23 @@ class LinkCounters:
         self.stats = stats  # the link's Counter (MavlinkLink.stats)
         self.tx_rate = self.rx_rate = 0.0
         self._since_s, self._tx, self._rx = now_s, 0, 0
+        self.lost = 0
+        self._last_seq = {}  # (system, component) -> the last sequence number
+
+    def on_frame(self, frame):
+        """A valid MAVLink 1 or 2 frame the link received (MavlinkLink.on_frames)."""
+        if frame[0] == 0xFD:
+            seq, source = frame[4], (frame[5], frame[6])
+        else:
+            seq, source = frame[2], (frame[3], frame[4])
+        last = self._last_seq.get(source)
+        if last is not None:
+            expected = (last + 1) & 0xFF
+            if seq > expected:
+                self.lost += seq - expected
+            elif seq < expected:
+                self.lost += 255 - expected + seq
+        self._last_seq[source] = seq
 
     def update(self, now_s):
         """The link's counters, the rates brought up to date first."""

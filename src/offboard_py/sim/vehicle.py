@@ -409,6 +409,11 @@ class Vehicle:
         maybe = self._stage('maybe', contact and minimal_thrust, MAYBE_LANDED_S, now_s)
         self.landed = self._stage('landed', maybe, LANDED_S, now_s)
 
+    @property
+    def maybe_landed(self):
+        """The land detector's maybe-landed stage (or landed): what lets PX4's commander disarm."""
+        return self.landed or self._stages['maybe'][0]
+
     # -- derived quantities ---------------------------------------------------------------
 
     def attitude(self):
