@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Offboard signal lost mid-hover: the vehicle leaves OFFBOARD within COM_OF_LOSS_T + 0.3 s for
-PX4's failsafe (no RC: Return, which lands at once next to home), comes down under control,
+"""Offboard signal lost mid-hover: the vehicle leaves OFFBOARD COM_OF_LOSS_T after the last setpoint
+for PX4's failsafe, said in PX4's next 1 Hz HEARTBEAT (recorded 1.93 and 1.57 s with COM_OF_LOSS_T 1:
+reference/px4-sitl-measured.md, "The flight") (no RC: Return, which lands at once next to home), comes down under control,
 lands and disarms. COM_OF_LOSS_T is the test's ~offboard_loss_timeout, which the .test file
 also gives the simulator."""
 
@@ -18,9 +19,13 @@ PKG = 'offboard_py'
 LAND_SPEED = 0.7         # MPC_LAND_SPEED
 
 
+HEARTBEAT_PERIOD_S = 1.0  # PX4 says a mode change in its next HEARTBEAT, not at once
+
+
 def modes_after(gcs, start):
-    """(time, mode) of each CURRENT_MODE the ground station got after monotonic time `start`."""
-    return [(t, px4_modes.decode(m.custom_mode)) for t, m in gcs.timed('CURRENT_MODE') if t > start]
+    """(time, mode) of each autopilot HEARTBEAT the ground station got after ROS time `start`."""
+    return [(t, px4_modes.mode_string(m.base_mode, m.custom_mode)) for t, m in gcs.timed('HEARTBEAT')
+            if t > start and m.get_srcComponent() == 1]
 
 
 class OffboardLossTest(OffboardTestCase):
@@ -42,8 +47,9 @@ class OffboardLossTest(OffboardTestCase):
         self.assertGreaterEqual(when - last, loss_s - 0.05,
                                 'left OFFBOARD %.2f s after the last setpoint, before COM_OF_LOSS_T %.1f s'
                                 % (when - last, loss_s))
-        self.assertLessEqual(when - last, loss_s + 0.3, 'left OFFBOARD %.2f s after the last setpoint (COM_OF_LOSS_T '
-                             '%.1f s + 0.3)' % (when - last, loss_s))
+        self.assertLessEqual(when - last, loss_s + HEARTBEAT_PERIOD_S + 0.3,
+                             'left OFFBOARD %.2f s after the last setpoint (COM_OF_LOSS_T %.1f s + a HEARTBEAT '
+                             'period + 0.3)' % (when - last, loss_s))
         start = now()
         self.wait_for_armed(vehicle, False, 30.0)
         with vehicle.lock:

@@ -22,7 +22,6 @@ HOLD_FLAGS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_
 ARMED_OFFBOARD_FLAGS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
                         | mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 NAN4 = (math.nan,) * 4
-# common.xml's FAILURE_UNIT and FAILURE_TYPE values not in pymavlink 2.4.49 (nor in offboard_py.dialect)
 REAL32, INT32 = mavlink.MAV_PARAM_TYPE_REAL32, mavlink.MAV_PARAM_TYPE_INT32
 MISSION = mavlink.MAV_MISSION_TYPE_MISSION
 
@@ -97,13 +96,14 @@ def test_offboard_refusals_then_acceptance(start_sim):
     assert client.set_mode('AUTO.LOITER') == ACCEPTED
     assert client.arm() == ACCEPTED
     assert client.set_mode('OFFBOARD') == TEMPORARILY_REJECTED
-    client.sleep(0.3)
-    assert client.current_mode() == 'AUTO.LOITER'
+    client.wait_mode('AUTO.LOITER', 2.0)
+    client.sleep(1.2)  # a HEARTBEAT period more: the refused request changed nothing
+    assert client.mode() == 'AUTO.LOITER'
     # after streaming: accepted
     client.start_stream(down=-2.0)
     client.sleep(0.3)
     assert client.set_mode('OFFBOARD') == ACCEPTED
-    client.wait_mode('OFFBOARD', 1.0)
+    client.wait_mode('OFFBOARD', 2.0)
 
 
 def test_command_long_set_mode_gets_two_acks(start_sim):
@@ -143,12 +143,14 @@ def test_offboard_takeoff_to_2m_and_hold(start_sim):
 
 
 def failsafe_delay(client, mode):
-    """Stop the stream in OFFBOARD hover; seconds from the last setpoint to CURRENT_MODE `mode`."""
+    """Stop the stream in OFFBOARD hover; seconds from the last setpoint to the first HEARTBEAT in `mode`
+    (PX4 says a mode change in its next 1 Hz HEARTBEAT: recorded 1.93 and 1.57 s with COM_OF_LOSS_T 1,
+    reference/px4-sitl-measured.md, "The flight")."""
     client.stop_stream()
     last = client.last_setpoint_s
-    client.wait_for(lambda: client.current_mode() == mode, 2.0, mode + ' after the stream stops')
-    changed = next(t for t, m in client.history if m.get_type() == 'CURRENT_MODE'
-                   and px4_modes.decode(m.custom_mode) == mode)
+    client.wait_for(lambda: client.mode() == mode, 3.0, mode + ' after the stream stops')
+    changed = next(t for t, m in client.history if t > last and m.get_type() == 'HEARTBEAT'
+                   and px4_modes.mode_string(m.base_mode, m.custom_mode) == mode)
     return changed - last
 
 
@@ -158,8 +160,10 @@ def test_failsafe_without_rc_is_return_and_lands(start_sim):
     client.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'AUTO.RTL')
-    assert loss_t - 0.05 <= delay <= loss_t + 0.2, 'failsafe took %.2f s (COM_OF_LOSS_T %.1f, + 0.2)' % (delay, loss_t)
-    cm = client.latest['CURRENT_MODE']
+    assert loss_t - 0.05 <= delay <= loss_t + 1.0 + 0.2, \
+        'failsafe seen %.2f s after the last setpoint (COM_OF_LOSS_T %.1f + a HEARTBEAT period + 0.2)' % (delay, loss_t)
+    cm = client.wait_for(lambda: client.current_mode() == 'AUTO.RTL' and client.latest['CURRENT_MODE'], 3.0,
+                         'CURRENT_MODE (0.5 Hz) in AUTO.RTL')
     assert px4_modes.decode(cm.intended_custom_mode) == 'OFFBOARD', 'the intended mode stays OFFBOARD'
     client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_CRITICAL, 2.0,
                     'CRITICAL while in failsafe')
@@ -185,7 +189,8 @@ def test_failsafe_with_rc_holds_position(start_sim):
     client.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'POSCTL')  # COM_OBL_RC_ACT 0 (Position) applies with RC
-    assert loss_t - 0.05 <= delay <= loss_t + 0.2, 'failsafe took %.2f s (COM_OF_LOSS_T %.1f, + 0.2)' % (delay, loss_t)
+    assert loss_t - 0.05 <= delay <= loss_t + 1.0 + 0.2, \
+        'failsafe seen %.2f s after the last setpoint (COM_OF_LOSS_T %.1f + a HEARTBEAT period + 0.2)' % (delay, loss_t)
     t0 = client.now()
     while client.now() - t0 < 3.0:
         assert abs(client.z() + 2.0) < 0.2, 'POSCTL should hold altitude, z = %.2f' % client.z()
@@ -231,12 +236,12 @@ def test_takeoff_and_land_commands(start_sim):
     client.sleep(1.2)
     assert client.arm() == ACCEPTED
     assert client.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, *NAN4)[0] == ACCEPTED
-    client.wait_mode('AUTO.TAKEOFF', 1.0)
+    client.wait_mode('AUTO.TAKEOFF', 2.0)
     client.wait_mode('AUTO.LOITER', 15.0)
     # PX4 completes the takeoff NAV_MC_ALT_RAD (0.8 m) short of MIS_TAKEOFF_ALT and loiters at it
     client.wait_for(lambda: abs(client.z() + 2.5) < 0.35, 5.0, 'MIS_TAKEOFF_ALT 2.5 m reached in AUTO.LOITER')
     assert client.command(mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, *NAN4)[0] == ACCEPTED
-    client.wait_mode('AUTO.LAND', 1.0)
+    client.wait_mode('AUTO.LAND', 2.0)
     client.wait_armed(False, 20.0)  # PX4: 12.8 s to land from 2.2 m, then COM_DISARM_LAND 2 s
     assert client.latest['EXTENDED_SYS_STATE'].landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND
     client.wait_mode('AUTO.LOITER', 2.0)  # back to the user's mode before the landing

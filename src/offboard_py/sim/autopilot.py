@@ -446,9 +446,10 @@ class SimulatedPx4:
         status = self.flight.status(now)
         for event in events:
             if isinstance(event, ev.ModeChanged):
+                # logged only: PX4 says a mode change in its next 1 Hz HEARTBEAT and 0.5 Hz CURRENT_MODE, not
+                # at once (the recorded conversations: both strictly periodic through every change)
                 log.info('mode %s%s, %s', status.nav_mode, ' (failsafe)' if status.failsafe else '',
                          'armed' if status.armed else 'disarmed')
-                self._broadcast(self.telemetry.current_mode(status))
             elif isinstance(event, ev.StatusText):
                 self._text(event.severity, event.text)
             elif isinstance(event, ev.MissionCurrent):

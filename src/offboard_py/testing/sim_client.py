@@ -239,8 +239,9 @@ class Client:
         return bool(hb and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
 
     def wait_mode(self, mode, timeout_s):
-        """CURRENT_MODE is sent on every change, so once one has come it is the freshest word."""
-        return self.wait_for(lambda: (self.current_mode() or self.mode()) == mode, timeout_s, 'mode ' + mode)
+        """Until the HEARTBEAT says `mode`: PX4 sends it at 1 Hz (CURRENT_MODE at 0.5 Hz), neither at once
+        on a change, so a mode change is seen up to a second after it happens, as from real PX4."""
+        return self.wait_for(lambda: self.mode() == mode, timeout_s, 'mode ' + mode)
 
     def wait_armed(self, armed, timeout_s):
         return self.wait_for(lambda: self.armed() == armed, timeout_s, 'armed' if armed else 'disarmed')
