@@ -2,11 +2,14 @@
 
 Every number is from reference/px4-sitl-measured.md, "Turn 3 recordings": section 2 (angular rates
 and IMU noise on the ground and in hover; the 30 m position step) and section 7 (LOCAL_POSITION_NED
-on the ground after a fresh start). Figures are held within 10 % of the span of PX4's runs; times
-also within one simulator step (10 ms), the resolution of ATTITUDE.
+on the ground after a fresh start), and the lift-off from reference/px4-sitl-trace.csv. Figures
+are held within 10 % of the span of PX4's runs; times also within one simulator step (10 ms), the
+resolution of ATTITUDE.
 """
 
+import csv
 import math
+import os
 
 import pytest
 
@@ -288,3 +291,34 @@ def test_preflight_checks_pass_4_s_after_boot_by_default():
     f = Flight(ParamStore({}), FRAME, 0.0, ready_delay_s=parser().parse_args([]).ready_delay)
     assert f.status(3.95).system_status != M.MAV_STATE_STANDBY
     assert f.status(4.0).system_status == M.MAV_STATE_STANDBY
+
+
+def px4_lift_off_s():
+    """Arm -> LOCAL_POSITION_NED z 0.05 m above its resting value in PX4 SITL's recorded offboard
+    takeoff (reference/px4-sitl-trace.csv)."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'reference', 'px4-sitl-trace.csv')
+    with open(path) as f:
+        rows = [row for row in csv.DictReader(f) if row['armed'] == '1']
+    armed_s, resting_z = float(rows[0]['t']), float(rows[0]['z'])
+    return next(float(row['t']) - armed_s for row in rows if float(row['z']) < resting_z - 0.05)
+
+
+@pytest.mark.parametrize('seed', [1, 2, 4])
+def test_lift_off_is_px4s(seed):
+    """The takeoff ramp (COM_SPOOLUP_TIME 1 s, then MPC_TKO_RAMP_T 3 s from zero thrust) lifts the
+    vehicle off about 3 s after the arm, from any of the recorded ground starts."""
+    r = Run(seed=seed)
+    r.run(1.0)
+    r.setpoint = position_setpoint(0.0, 0.0, -2.0)
+    r.run(0.5)
+    r.flight.request_mode('OFFBOARD', r.t)
+    r.run(0.5)
+    resting_z = r.flight.status(r.t).position[2]
+    assert r.flight.request_arming(True, False, r.t) == M.MAV_RESULT_ACCEPTED
+    armed_s = r.t
+    for _ in range(1000):
+        if r.step().position[2] < resting_z - 0.05:
+            break
+    px4 = px4_lift_off_s()
+    assert within(r.t - armed_s, (px4,), slack=STEP_S), 'lift-off %.2f s after the arm, PX4 %.2f s' % (
+        r.t - armed_s, px4)
