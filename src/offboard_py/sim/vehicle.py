@@ -409,11 +409,13 @@ class Vehicle:
         tx, ty, tz = thrust_sp
         magnitude = math.sqrt(tx * tx + ty * ty + tz * tz)
         self.collective += min(1.0, dt / max(p['SIH_T_TAU'], dt)) * (magnitude - self.collective)
+        b, rates, rates_dot = self.tilt, self.tilt_rates, self.tilt_rates_dot
         if magnitude > 1e-6:
             want = (-tx / magnitude, -ty / magnitude, -tz / magnitude)
+        elif b[2] == 1.0 and not (rates[0] or rates[1] or rates_dot[0] or rates_dot[1]):
+            return  # level, still and asked for nothing (idle on the ground): nothing turns
         else:
             want = (0.0, 0.0, 1.0)
-        b = self.tilt
         # the tilt error as a rotation vector (world frame), then in the heading frame: roll about
         # the heading (forward), pitch about its right
         cx, cy = b[1] * want[2] - b[2] * want[1], b[2] * want[0] - b[0] * want[2]
@@ -426,21 +428,25 @@ class Vehicle:
         roll_max, pitch_max = math.radians(p['MC_ROLLRATE_MAX']), math.radians(p['MC_PITCHRATE_MAX'])
         rates_sp = (_clamp(p['MC_ROLL_P'] * scale * (cx * c + cy * s), -roll_max, roll_max),
                     _clamp(p['MC_PITCH_P'] * scale * (cy * c - cx * s), -pitch_max, pitch_max))
-        rates, rates_dot = self.tilt_rates, self.tilt_rates_dot
+        roll_sp, pitch_sp = rates_sp
         substeps = int(dt / ATTITUDE_SUBSTEP_S - 1e-9) + 1
         h = dt / substeps
-        wn2, damping = RATE_WN * RATE_WN, 2.0 * RATE_ZETA * RATE_WN
+        wn2h, damping_h = RATE_WN * RATE_WN * h, 2.0 * RATE_ZETA * RATE_WN * h
+        roll, pitch = rates
+        roll_dot, pitch_dot = rates_dot
+        bx, by, bz = b
         for _ in range(substeps):
-            for i in (0, 1):
-                rates_dot[i] += (wn2 * (rates_sp[i] - rates[i]) - damping * rates_dot[i]) * h
-                rates[i] += rates_dot[i] * h
+            roll_dot += wn2h * (roll_sp - roll) - damping_h * roll_dot
+            pitch_dot += wn2h * (pitch_sp - pitch) - damping_h * pitch_dot
+            roll += roll_dot * h
+            pitch += pitch_dot * h
             # the body turns at the rates (heading frame -> world), b' = w x b
-            wx, wy = rates[0] * c - rates[1] * s, rates[0] * s + rates[1] * c
-            b[0] += wy * b[2] * h
-            b[1] -= wx * b[2] * h
-            b[2] += (wx * b[1] - wy * b[0]) * h
-            n = math.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
-            b[0], b[1], b[2] = b[0] / n, b[1] / n, b[2] / n
+            wx, wy = (roll * c - pitch * s) * h, (roll * s + pitch * c) * h
+            bx, by, bz = bx + wy * bz, by - wx * bz, bz + wx * by - wy * bx
+            n = math.sqrt(bx * bx + by * by + bz * bz)
+            bx, by, bz = bx / n, by / n, bz / n
+        rates[0], rates[1], rates_dot[0], rates_dot[1] = roll, pitch, roll_dot, pitch_dot
+        b[0], b[1], b[2] = bx, by, bz
 
     def _ground(self, now_s):
         """The flat ground at ground_z; True while the vehicle rests on it."""
