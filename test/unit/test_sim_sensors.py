@@ -253,12 +253,13 @@ def test_position_step_noses_down_and_holds_height(step_ideal):
 
 
 def test_position_step_with_sih_noise():
-    """With the noise on top (seeded), the rates ATTITUDE reports keep the step's shape."""
-    figures = fly_step(Run())
-    for name in ('peak_pitchspeed', 'pitch_0.5s_deg', 'pitch_1s_deg', 'within_1m_s', 'max_x'):
-        assert within(figures[name], STEP[name], slack=STEP_S if name.endswith('_s') else 0.0), \
-            '%s: ours %.3f, PX4 %s' % (name, figures[name], STEP[name])
-    assert within(figures['peak_pitchspeed_s'], STEP['peak_pitchspeed_s'], tolerance=0.2, slack=STEP_S)
+    """With the noise on top (seeded), the rates ATTITUDE reports keep the step's shape: the median
+    over five seeds, as the hover the step starts from differs from run to run."""
+    runs = [fly_step(Run(seed=seed)) for seed in range(1, 6)]
+    for name in ('peak_pitchspeed', 'peak_pitchspeed_s', 'pitch_0.5s_deg', 'pitch_1s_deg', 'within_1m_s', 'max_x'):
+        ours = sorted(figures[name] for figures in runs)[2]
+        assert within(ours, STEP[name], slack=STEP_S if name.endswith('_s') else 0.0), \
+            '%s: ours %.3f (median), PX4 %s' % (name, ours, STEP[name])
 
 
 def test_ground_position_after_a_fresh_start_is_px4s_and_repeats():

@@ -9,7 +9,7 @@ accelerometer about 0.74 (hover: xgyro 0.115-0.118, ygyro 0.056, zgyro 0.024-0.0
 yacc 1.20-1.29, zacc 1.02-1.04), and ATTITUDE's rates (the filtered angular velocity) about 0.85 of
 HIGHRES_IMU's on every axis, in hover and on the ground alike (rollspeed 0.099 against xgyro 0.115;
 0.0059 against 0.0069 on the ground): a first-order low-pass on the gyro reproduces that ratio.
-On the ground, at rest, the recorded noise is much smaller and the same on every axis
+On the ground, at rest and disarmed, the recorded noise is much smaller and the same on every axis
 (gyro 0.0067-0.0076 rad/s, accelerometer 0.070-0.075 m/s^2).
 
 Seeded, as SIH seeds its noise (srand(1234)), so a run repeats exactly; the stream is separate
@@ -49,7 +49,7 @@ class Imu:
 
     def step(self, dt, true_rates, specific_force, at_rest):
         """Read the sensors after a model step of dt seconds: true body rates (rad/s) and specific
-        force (m/s^2), both FRD; `at_rest` on the ground."""
+        force (m/s^2), both FRD; `at_rest` on the ground with the motors off."""
         if self.ideal:
             self.gyro = self.rates = tuple(true_rates)
             self.accel = tuple(specific_force)

@@ -57,7 +57,7 @@ TAKEOFF_TRIGGER_M = 0.2        # a position setpoint this far above asks for a t
 GROUND_STARTS = ((-0.158, 0.081, -0.179), (0.214, -0.343, -0.097), (-0.122, 0.079, -0.175),
                  (-0.191, 0.095, -0.547), (-0.127, 0.081, -0.174), (0.054, -0.216, -0.507),
                  (0.055, -0.215, -0.507), (0.053, -0.216, -0.507))
-# at rest on the ground the estimate is steadier than in flight (section 7: z within 0.01 m over 5 s)
+# at rest on the ground, disarmed, the estimate is steadier than in flight (section 7: z within 0.01 m over 5 s)
 RESTING_NOISE_SCALE = 0.15
 # hover wander and estimator noise of PX4 SITL's size (px4-sitl-measured.md: z +-0.1 m, xy up to 0.6 m)
 GUST_XY, GUST_Z, GUST_TAU_S = 0.5, 0.25, 4.0   # m/s^2 standard deviation, correlation time
@@ -385,7 +385,9 @@ class Vehicle:
             velocity[i] += acceleration[i] * dt
             position[i] += velocity[i] * dt
         self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
-        resting = self._ground(now_s)
+        # at rest with the motors off: the quiet estimate and IMU recorded on the ground (sections 2
+        # and 7 were disarmed); with the motors on the controller flies the full noise, as in the air
+        resting = self._ground(now_s) and not self.motors_on
         self.estimate = self.estimator.measure(self.position, self.velocity, resting)
         self._land_detector(sp, now_s)
         self._attitude = None
