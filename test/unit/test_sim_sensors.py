@@ -18,7 +18,7 @@ from offboard_py.sim import offboard_input, telemetry
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.main import parser
-from offboard_py.sim.params import ParamStore
+from offboard_py.sim.params import ParamRejected, ParamStore
 from offboard_py.testing.typemask import POSITION_AND_YAW
 
 M = mavlink
@@ -323,3 +323,10 @@ def test_lift_off_is_px4s(seed):
     px4 = px4_lift_off_s()
     assert within(r.t - armed_s, (px4,), slack=STEP_S), 'lift-off %.2f s after the arm, PX4 %.2f s' % (
         r.t - armed_s, px4)
+
+
+@pytest.mark.parametrize('name,value', [('MC_ROLL_P', -1.0), ('MC_PITCH_P', 13.0), ('MC_ROLLRATE_MAX', -5.0)])
+def test_attitude_loop_parameters_are_range_checked_as_px4_does(name, value):
+    """The attitude loop reads them every step: a negative gain would turn the vehicle over."""
+    with pytest.raises(ParamRejected, match=name):
+        ParamStore({}).set(name, value)
