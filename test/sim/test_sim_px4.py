@@ -47,7 +47,7 @@ def test_heartbeat_identity_and_boot_state(start_sim):
     assert hb.base_mode == HOLD_FLAGS, 'AUTO modes: custom, auto, guided, stabilize; disarmed'
     assert hb.system_status == mavlink.MAV_STATE_UNINIT, 'UNINIT until the pre-flight checks pass (PX4 SITL)'
     client.wait_for(lambda: client.latest['HEARTBEAT'].system_status == mavlink.MAV_STATE_STANDBY, 7.0,
-                    'STANDBY once ready (5 s)')
+                    'STANDBY once ready (4 s)')
     t0 = client.now()
     count0 = sum(1 for _, m in client.history if m.get_type() == 'HEARTBEAT')
     client.sleep(3.0)
@@ -199,7 +199,7 @@ def test_failsafe_with_rc_holds_position(start_sim):
 
 
 def test_arming_ack_codes(start_sim):
-    _, client = start_sim()  # default ready delay: 5 s, as PX4 SITL
+    _, client = start_sim()  # default ready delay: 4 s, as PX4 SITL
     assert client.arm() == TEMPORARILY_REJECTED, 'not ready right after boot'
     client.wait_for(lambda: client.arm() == ACCEPTED, 8.0, 'arming accepted once ready')
     assert client.arm() == ACCEPTED, 'arming while armed is accepted'

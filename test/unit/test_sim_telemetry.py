@@ -340,50 +340,6 @@ def test_cycles_of_one_wake_up_each_run_at_their_own_time():
         sim.close_links()
 
 
-# -- body rates ------------------------------------------------------------------------------------
-
-def test_body_rates_turn_one_attitude_into_the_next():
-    from offboard_py.sim.vehicle import body_rates, quaternion_from_thrust
-    level = quaternion_from_thrust((0.0, 0.0, 0.0), 0.0)
-    assert body_rates(level, quaternion_from_thrust((0.0, 0.0, 0.0), 0.01), 0.01) == pytest.approx((0, 0, 1), abs=1e-4)
-    # accelerating east banks right (roll +), north pitches the nose down (pitch -)
-    assert body_rates(level, quaternion_from_thrust((0.0, 0.0981, 0.0), 0.0), 0.01) == pytest.approx((1, 0, 0), abs=1e-3)
-    assert body_rates(level, quaternion_from_thrust((0.0981, 0.0, 0.0), 0.0), 0.01) == pytest.approx((0, -1, 0), abs=1e-3)
-    q = quaternion_from_thrust((0.0, 0.0981, 0.0), 0.0)
-    assert body_rates(level, tuple(-c for c in q), 0.01) == pytest.approx((1, 0, 0), abs=1e-3), 'the shorter way round'
-
-
-def test_gyro_follows_the_attitude_within_px4s_rate_limits():
-    """ATTITUDE, ATTITUDE_QUATERNION, ODOMETRY and HIGHRES_IMU carry the turn of the attitude they
-    report (a step integrates to the next ATTITUDE), never above MC_ROLLRATE_MAX/MC_PITCHRATE_MAX."""
-    f = make()
-    b = builder(f)
-    st = f.status(1.0)
-    assert st.body_rates == (0.0, 0.0, 0.0), 'standing still'
-    f.on_offboard_setpoint(hover_setpoint(), 0.0)
-    f.request_mode('OFFBOARD', 0.0)
-    f.request_arming(True, False, 0.0)
-    t = fly(f, 0.0, 15.0, hover_setpoint())
-    leg = hover_setpoint()._replace(position=(30.0, 0.0, -2.0))
-    limit = math.radians(220.0)
-    peak = 0.0
-    for _ in range(300):
-        before = b.build('ATTITUDE', f.status(t), t)
-        t = fly(f, t, 0.01, leg)
-        st = f.status(t)
-        att = b.build('ATTITUDE', st, t)
-        rates = (att.rollspeed, att.pitchspeed, att.yawspeed)
-        assert max(abs(r) for r in rates[:2]) <= limit + 1e-6
-        if max(abs(r) for r in rates[:2]) < limit * 0.99:  # not clamped: the rates integrate to the new attitude
-            assert att.pitch == pytest.approx(before.pitch + att.pitchspeed * 0.01, abs=2e-4)
-            assert att.roll == pytest.approx(before.roll + att.rollspeed * 0.01, abs=2e-4)
-        peak = max(peak, abs(att.pitchspeed))
-        imu, quat, odom = (b.build(name, st, t) for name in ('HIGHRES_IMU', 'ATTITUDE_QUATERNION', 'ODOMETRY'))
-        assert (imu.xgyro, imu.ygyro, imu.zgyro) == (quat.rollspeed, quat.pitchspeed, quat.yawspeed) == \
-            (odom.rollspeed, odom.pitchspeed, odom.yawspeed) == pytest.approx(rates)
-    assert peak > 1.0, 'the leg starts with the nose going down'
-
-
 # -- TIME_ESTIMATE_TO_TARGET and LINK_NODE_STATUS ------------------------------------------------
 
 def test_rtl_time_estimate_is_px4s():

@@ -79,8 +79,9 @@ class Status(NamedTuple):
     home: tuple = (0.0, 0.0, 0.0)  # local NED of home, m: where the vehicle was armed (or booted)
     rc: bool = False               # an RC link is simulated (sticks centred)
     rtl: tuple = None              # while AUTO.RTL flies: (its phase, the return altitude as local z)
-    body_rates: tuple = (0.0, 0.0, 0.0)  # FRD, rad/s: what a gyro reads
+    body_rates: tuple = (0.0, 0.0, 0.0)  # FRD, rad/s: the filtered gyro (ATTITUDE's rates)
     logging: bool = True           # the logger runs (SYS_STATUS's LOGGING present/enabled bits)
+    gyro: tuple = (0.0, 0.0, 0.0)        # FRD, rad/s: the gyro (HIGHRES_IMU)
 
     @property
     def custom_mode(self):
@@ -243,4 +244,4 @@ class Flight:
                       c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
-                      self.home, c.rc, rtl, v.body_rates, c.logging(now_s))
+                      self.home, c.rc, rtl, v.body_rates, c.logging(now_s), v.gyro)

@@ -99,8 +99,9 @@ def parser():
     p.add_argument('--gcs-remote-port', type=int,
                    help='UDP port the ground-station link sends to until a client talks to it (default 14550)')
     p.add_argument('--no-gcs', action='store_true', help='no ground-station link (only the onboard link)')
-    p.add_argument('--ready-delay', type=float, default=5.0,
-                   help='seconds after boot before arming is allowed (default 5, as PX4 SITL)')
+    p.add_argument('--ready-delay', type=float, default=4.0,
+                   help='seconds after boot before the pre-flight checks pass and arming is allowed '
+                        '(default 4, as PX4 SITL)')
     p.add_argument('--rc', action='store_true', help='simulate an RC link (sticks centred)')
     p.add_argument('--ideal', action='store_true',
                    help='an ideal vehicle: no estimator noise, no hover wander, local z 0 on the ground '

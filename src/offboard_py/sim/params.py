@@ -85,8 +85,10 @@ RANGES = {
     'MPC_THR_MIN': (0.05, 1.0),
     'MPC_THR_MAX': (0.0, 1.0),
     'RTL_CONE_ANG': (0, 90),
-    'MC_ROLLRATE_MAX': (0.0, 1800.0),   # deg/s: the gyro's limit in telemetry (vehicle.body_rates)
+    'MC_ROLLRATE_MAX': (0.0, 1800.0),   # deg/s: the attitude loop's rate limit (vehicle._attitude_loop)
     'MC_PITCHRATE_MAX': (0.0, 1800.0),
+    'MC_ROLL_P': (0.0, 12.0),           # the attitude loop's gains
+    'MC_PITCH_P': (0.0, 12.0),
     # the RTL time estimate (TIME_ESTIMATE_TO_TARGET)
     'RTL_LAND_DELAY': (-1.0, 300.0),
     'RTL_TIME_FACTOR': (1.0, 2.0),

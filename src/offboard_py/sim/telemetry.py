@@ -439,7 +439,7 @@ class TelemetryBuilder:
         c, s = math.cos(st.yaw), math.sin(st.yaw)
         mag_n, mag_d = 0.21, 0.43  # gauss, roughly central Europe
         alt = self._amsl(st)
-        return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, *st.body_rates,
+        return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, *st.gyro,
                                            c * mag_n, -s * mag_n, mag_d, pressure_hpa(alt), 0.0, alt, TEMPERATURE_C,
                                            HIGHRES_IMU_ALL_FIELDS)
 

@@ -10,8 +10,14 @@ Controller, as PX4's mc_pos_control (PositionControl, TakeoffHandling):
 - takeoff: spool-up (COM_SPOOLUP_TIME), then the climb-rate limit ramps over MPC_TKO_RAMP_T from
   -g / MPC_Z_VEL_P_ACC (zero thrust) to the climb speed, as PX4's takeoff ramp does.
 Airframe, as PX4's SIH quadrotor: mass SIH_MASS, four rotors of SIH_T_MAX each, linear drag
-SIH_KDV (which is what holds the cruise speed below MPC_XY_VEL_MAX with a 45 deg tilt), and the
-thrust vector following the command with the motor constant SIH_T_TAU plus the attitude loop.
+SIH_KDV (which is what holds the cruise speed below MPC_XY_VEL_MAX with a 45 deg tilt), the
+collective thrust following the command with the motor constant SIH_T_TAU, and the thrust's
+direction turned by PX4's attitude loop: the tilt error times MC_ROLL_P / MC_PITCH_P asks for a
+body rate, limited to MC_ROLLRATE_MAX / MC_PITCHRATE_MAX, which the rate loop and rotors reach as a
+second-order response, all PIPELINE_DELAY_S after the position controller asked (fitted to the
+30 m step of reference/px4-sitl-measured.md, "Turn 3 recordings", section 2: pitch rate first above
+0.4 rad/s at about 100 ms, its peak 2.8 rad/s at about 240 ms, pitch -40 deg at 0.5 s and -44 deg
+at 1 s). The body rates are the model's; the gyro and accelerometer add SIH's noise (sim.sensors).
 An optional gust (a seeded Ornstein-Uhlenbeck acceleration) makes the vehicle wander in hover
 as PX4 SITL's does; the estimate the controller flies and telemetry reports carries a little
 white noise (`Estimator`). Both are off for an ideal vehicle.
@@ -25,10 +31,17 @@ from a clock. No MAVLink, no ROS.
 
 import math
 import random
-from collections import namedtuple
+from collections import deque, namedtuple
+
+from offboard_py.sim.sensors import Imu
 
 GRAVITY = 9.80665
-ATTITUDE_LAG_S = 0.08     # attitude loop (MC_ROLL_P/MC_PITCH_P 4 -> about 0.1 s) on top of SIH_T_TAU
+# PX4's attitude pipeline, fitted to the 30 m step (module docstring): from the position controller's
+# thrust setpoint to the attitude controller (estimator and controller rates, uORB), and the rate
+# loop with the rotors as a second-order response (natural frequency rad/s, damping ratio)
+PIPELINE_DELAY_S = 0.06
+RATE_WN, RATE_ZETA = 16.0, 0.55
+ATTITUDE_SUBSTEP_S = 0.01  # the rate response is integrated in steps no longer than this
 YAW_P = 2.8               # MC_YAW_P
 YAW_RATE_MAX = math.radians(200.0)  # MC_YAWRATE_MAX
 NAN = float('nan')
@@ -38,9 +51,17 @@ GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
 LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
 MINIMAL_THRUST_FRACTION = 0.3  # ... "minimal thrust" (maybe landed)
 TAKEOFF_TRIGGER_M = 0.2        # a position setpoint this far above asks for a takeoff (PX4)
-GROUND_Z_M = -0.17             # PX4 SITL's local z (NED) on the ground: its estimate reads 0.16-0.18 m above the origin
+# PX4 SITL's local position on the ground after a fresh start (reference/px4-sitl-measured.md, "Turn 3
+# recordings", section 7: eight starts): z reads 0.1-0.55 m above the origin and takes a few values
+# that repeat, since SIH seeds its noise; a vehicle here takes the start its seed picks (seed 1: start 1)
+GROUND_STARTS = ((-0.158, 0.081, -0.179), (0.214, -0.343, -0.097), (-0.122, 0.079, -0.175),
+                 (-0.191, 0.095, -0.547), (-0.127, 0.081, -0.174), (0.054, -0.216, -0.507),
+                 (0.055, -0.215, -0.507), (0.053, -0.216, -0.507))
+# at rest on the ground, disarmed, the estimate is steadier than in flight (section 7: z within 0.01 m over 5 s)
+RESTING_NOISE_SCALE = 0.15
 # hover wander and estimator noise of PX4 SITL's size (px4-sitl-measured.md: z +-0.1 m, xy up to 0.6 m)
 GUST_XY, GUST_Z, GUST_TAU_S = 0.5, 0.25, 4.0   # m/s^2 standard deviation, correlation time
+GUST_SMOOTH_S = 2.0                            # s, a first-order low-pass on it
 NOISE_POSITION_XY, NOISE_POSITION_Z, NOISE_VELOCITY = 0.02, 0.01, 0.03  # m, m, m/s (1 sigma)
 
 Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max')
@@ -75,19 +96,6 @@ def _is(value):
     return value == value  # not NaN
 
 
-def body_rates(q0, q1, dt):
-    """The body (FRD) angular velocity, rad/s, that turns attitude q0 into q1 (w, x, y, z) in dt s:
-    2 x the vector part of q0^-1 q1 over dt, the shorter way round."""
-    w0, x0, y0, z0 = q0
-    w1, x1, y1, z1 = q1
-    if dt <= 0.0:
-        return (0.0, 0.0, 0.0)
-    scale = (2.0 if w0 * w1 + x0 * x1 + y0 * y1 + z0 * z1 >= 0.0 else -2.0) / dt
-    return (scale * (w0 * x1 - x0 * w1 - y0 * z1 + z0 * y1),
-            scale * (w0 * y1 + x0 * z1 - y0 * w1 - z0 * x1),
-            scale * (w0 * z1 - x0 * y1 + y0 * x1 - z0 * w1))
-
-
 def quaternion_from_thrust(acc_ned, yaw):
     """Attitude (w, x, y, z), NED/FRD, that points the thrust to give `acc_ned` with heading yaw."""
     fx, fy, fz = acc_ned[0], acc_ned[1], acc_ned[2] - GRAVITY
@@ -114,13 +122,25 @@ def quaternion_from_thrust(acc_ned, yaw):
     return ((xb[1] - yb[0]) / s, (zb[0] + xb[2]) / s, (zb[1] + yb[2]) / s, 0.25 * s)
 
 
+def ground_start(seed):
+    """Where PX4 SITL's estimate puts a vehicle resting on the ground after a fresh start
+    (local NED, m): one of section 7's starts, picked by the seed."""
+    try:
+        index = int(seed) - 1
+    except (TypeError, ValueError):
+        index = sum(ord(c) for c in str(seed))
+    return GROUND_STARTS[index % len(GROUND_STARTS)]
+
+
 class Estimator:
     """What PX4's estimator adds to the truth: white noise on position and velocity, and the gust
     that makes the vehicle wander. Seeded: the same seed gives the same flight. `ideal` is silent."""
 
     def __init__(self, seed=1, ideal=False):
         self.ideal = ideal
+        self.seed = seed
         self.rng = random.Random(seed)
+        self._raw_gust = [0.0, 0.0, 0.0]
         self.gust = [0.0, 0.0, 0.0]
 
     def step_gust(self, dt):
@@ -128,20 +148,26 @@ class Estimator:
             return self.gust
         decay = math.exp(-dt / GUST_TAU_S)
         spread = math.sqrt(1.0 - decay * decay)
-        g, gust = self.rng.gauss, self.gust
-        gust[0] = decay * gust[0] + spread * GUST_XY * g(0.0, 1.0)
-        gust[1] = decay * gust[1] + spread * GUST_XY * g(0.0, 1.0)
-        gust[2] = decay * gust[2] + spread * GUST_Z * g(0.0, 1.0)
+        g, raw, gust = self.rng.gauss, self._raw_gust, self.gust
+        raw[0] = decay * raw[0] + spread * GUST_XY * g(0.0, 1.0)
+        raw[1] = decay * raw[1] + spread * GUST_XY * g(0.0, 1.0)
+        raw[2] = decay * raw[2] + spread * GUST_Z * g(0.0, 1.0)
+        # smoothed: PX4 SITL's wander is slow (the estimate drifting, SIH has no wind), and its
+        # body rates in hover are SIH's gyro noise with next to no motion under it (section 2)
+        smooth = min(1.0, dt / GUST_SMOOTH_S)
+        for i in (0, 1, 2):
+            gust[i] += smooth * (raw[i] - gust[i])
         return gust
 
-    def measure(self, position, velocity):
+    def measure(self, position, velocity, resting=False):
         if self.ideal:
             return tuple(position), tuple(velocity)
         g = self.rng.gauss
-        pos = (position[0] + g(0.0, NOISE_POSITION_XY), position[1] + g(0.0, NOISE_POSITION_XY),
-               position[2] + g(0.0, NOISE_POSITION_Z))
-        vel = (velocity[0] + g(0.0, NOISE_VELOCITY), velocity[1] + g(0.0, NOISE_VELOCITY),
-               velocity[2] + g(0.0, NOISE_VELOCITY))
+        k = RESTING_NOISE_SCALE if resting else 1.0
+        pos = (position[0] + g(0.0, k * NOISE_POSITION_XY), position[1] + g(0.0, k * NOISE_POSITION_XY),
+               position[2] + g(0.0, k * NOISE_POSITION_Z))
+        vel = (velocity[0] + g(0.0, k * NOISE_VELOCITY), velocity[1] + g(0.0, k * NOISE_VELOCITY),
+               velocity[2] + g(0.0, k * NOISE_VELOCITY))
         return pos, vel
 
 
@@ -152,16 +178,25 @@ class Vehicle:
     def __init__(self, params, position=None, yaw=0.0, estimator=None, ground_z=None):
         self.params = params
         self.estimator = estimator or Estimator(ideal=True)
+        start = (0.0, 0.0, 0.0) if self.estimator.ideal else ground_start(self.estimator.seed)
         if ground_z is None:
-            ground_z = 0.0 if self.estimator.ideal else GROUND_Z_M
+            ground_z = start[2]
         self.ground_z = ground_z
-        self.position = list(position) if position is not None else [0.0, 0.0, ground_z]
+        self.position = list(position) if position is not None else [start[0], start[1], ground_z]
         self.velocity = [0.0, 0.0, 0.0]
         self.acceleration = [0.0, 0.0, 0.0]   # achieved, net of gravity
         self.thrust = [0.0, 0.0, 0.0]         # normalised thrust vector (NED), as the rotors give it
+        self.collective = 0.0                 # its magnitude
+        self.tilt = [0.0, 0.0, 1.0]           # the body's z axis (down) in NED: the thrust points against it
+        self.tilt_rates = [0.0, 0.0]          # roll and pitch rate (rad/s) ...
+        self.tilt_rates_dot = [0.0, 0.0]      # ... and their derivatives: the rate loop's state
+        self._pending = deque([(-1.0, (0.0, 0.0, 0.0))])  # thrust setpoints on their way (PIPELINE_DELAY_S)
         self.yaw = yaw
         self.yaw_rate = 0.0
-        self.body_rates = (0.0, 0.0, 0.0)  # FRD, rad/s: what a gyro reads (see step)
+        self.imu = Imu(self.estimator.seed, ideal=self.estimator.ideal)
+        self._gust = (0.0, 0.0, 0.0)  # this step's
+        self.body_rates = (0.0, 0.0, 0.0)  # FRD, rad/s: the filtered gyro (ATTITUDE), see sim.sensors
+        self.gyro = (0.0, 0.0, 0.0)        # FRD, rad/s: the gyro (HIGHRES_IMU)
         self.motors_on = False
         self.motors_on_s = None
         self.takeoff_state = 'disarmed'  # PX4's TakeoffHandling: disarmed, spoolup, ready, rampup, flight
@@ -315,7 +350,6 @@ class Vehicle:
     def step(self, dt, sp, now_s):
         """Advance the model by dt seconds, flying setpoint `sp` when the motors allow."""
         p = self.params
-        attitude_before = self.attitude()
         climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
         if self.motors_on:
             self._update_takeoff(sp, now_s, dt, climb_speed)
@@ -336,42 +370,103 @@ class Vehicle:
             self.setpoint, self.acceleration_setpoint = None, None
             self.velocity_setpoint = (NAN, NAN, NAN)
         self.thrust_setpoint = thrust_sp
-        alpha = min(1.0, dt / (max(p['SIH_T_TAU'], 0.0) + ATTITUDE_LAG_S))
+        self._attitude_loop(self._delayed(thrust_sp, now_s), dt)
         mass = max(p['SIH_MASS'], 0.01)  # SIH's airframe parameters are not range-checked
         thrust_acc = 4.0 * p['SIH_T_MAX'] / mass   # m/s^2 at full thrust
         drag = p['SIH_KDV'] / mass
         gust = self.estimator.step_gust(dt) if flying and not self.ground_contact else (0.0, 0.0, 0.0)
+        self._gust = gust
         thrust, acceleration, velocity, position = self.thrust, self.acceleration, self.velocity, self.position
+        tilt, collective = self.tilt, self.collective
         for i in (0, 1, 2):
-            thrust[i] += alpha * (thrust_sp[i] - thrust[i])
+            thrust[i] = -tilt[i] * collective
             acceleration[i] = (thrust[i] * thrust_acc + (GRAVITY if i == 2 else 0.0)
                                - drag * velocity[i] + gust[i])
             velocity[i] += acceleration[i] * dt
             position[i] += velocity[i] * dt
         self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
-        self._ground(now_s)
-        self.estimate = self.estimator.measure(self.position, self.velocity)
+        # at rest with the motors off: the quiet estimate and IMU recorded on the ground (sections 2
+        # and 7 were disarmed); with the motors on the controller flies the full noise, as in the air
+        resting = self._ground(now_s) and not self.motors_on
+        self.estimate = self.estimator.measure(self.position, self.velocity, resting)
         self._land_detector(sp, now_s)
         self._attitude = None
-        # the gyro: the turn from the last attitude to this one, within PX4's rate limits (the
-        # thrust here follows its setpoint with a lag, not PX4's rate-limited attitude loop, so
-        # a setpoint step would otherwise read up to 7 rad/s for a step or two)
-        rates = body_rates(attitude_before, self.attitude(), dt)
+        imu = self.imu
+        imu.step(dt, (self.tilt_rates[0], self.tilt_rates[1], self.yaw_rate), self._specific_force(), resting)
+        self.body_rates, self.gyro = imu.rates, imu.gyro
+
+    def _delayed(self, thrust_sp, now_s):
+        """The thrust setpoint the attitude controller works on now: the one of PIPELINE_DELAY_S ago."""
+        pending = self._pending
+        pending.append((now_s, thrust_sp))
+        due = now_s - PIPELINE_DELAY_S + 1e-9
+        while len(pending) > 1 and pending[1][0] <= due:
+            pending.popleft()
+        return pending[0][1]
+
+    def _attitude_loop(self, thrust_sp, dt):
+        """PX4's attitude and rate control with the rotors: turn the body's z axis towards the
+        thrust setpoint's direction, and the collective towards its magnitude (SIH_T_TAU)."""
+        p = self.params
+        tx, ty, tz = thrust_sp
+        magnitude = math.sqrt(tx * tx + ty * ty + tz * tz)
+        self.collective += min(1.0, dt / max(p['SIH_T_TAU'], dt)) * (magnitude - self.collective)
+        b, rates, rates_dot = self.tilt, self.tilt_rates, self.tilt_rates_dot
+        if magnitude > 1e-6:
+            want = (-tx / magnitude, -ty / magnitude, -tz / magnitude)
+        elif b[2] == 1.0 and not (rates[0] or rates[1] or rates_dot[0] or rates_dot[1]):
+            return  # level, still and asked for nothing (idle on the ground): nothing turns
+        else:
+            want = (0.0, 0.0, 1.0)
+        # the tilt error as a rotation vector (world frame), then in the heading frame: roll about
+        # the heading (forward), pitch about its right
+        cx, cy = b[1] * want[2] - b[2] * want[1], b[2] * want[0] - b[0] * want[2]
+        sin_err = math.sqrt(cx * cx + cy * cy + (b[0] * want[1] - b[1] * want[0]) ** 2)
+        if sin_err > 1e-9:
+            scale = math.atan2(sin_err, b[0] * want[0] + b[1] * want[1] + b[2] * want[2]) / sin_err
+        else:
+            scale = 1.0
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
         roll_max, pitch_max = math.radians(p['MC_ROLLRATE_MAX']), math.radians(p['MC_PITCHRATE_MAX'])
-        self.body_rates = (_clamp(rates[0], -roll_max, roll_max), _clamp(rates[1], -pitch_max, pitch_max),
-                           _clamp(rates[2], -YAW_RATE_MAX, YAW_RATE_MAX))
+        rates_sp = (_clamp(p['MC_ROLL_P'] * scale * (cx * c + cy * s), -roll_max, roll_max),
+                    _clamp(p['MC_PITCH_P'] * scale * (cy * c - cx * s), -pitch_max, pitch_max))
+        roll_sp, pitch_sp = rates_sp
+        substeps = int(dt / ATTITUDE_SUBSTEP_S - 1e-9) + 1
+        h = dt / substeps
+        wn2h, damping_h = RATE_WN * RATE_WN * h, 2.0 * RATE_ZETA * RATE_WN * h
+        roll, pitch = rates
+        roll_dot, pitch_dot = rates_dot
+        bx, by, bz = b
+        for _ in range(substeps):
+            roll_dot += wn2h * (roll_sp - roll) - damping_h * roll_dot
+            pitch_dot += wn2h * (pitch_sp - pitch) - damping_h * pitch_dot
+            roll += roll_dot * h
+            pitch += pitch_dot * h
+            # the body turns at the rates (heading frame -> world), b' = w x b
+            wx, wy = (roll * c - pitch * s) * h, (roll * s + pitch * c) * h
+            bx, by, bz = bx + wy * bz, by - wx * bz, bz + wx * by - wy * bx
+            n = math.sqrt(bx * bx + by * by + bz * bz)
+            bx, by, bz = bx / n, by / n, bz / n
+        rates[0], rates[1], rates_dot[0], rates_dot[1] = roll, pitch, roll_dot, pitch_dot
+        b[0], b[1], b[2] = bx, by, bz
 
     def _ground(self, now_s):
+        """The flat ground at ground_z; True while the vehicle rests on it."""
         gz = self.ground_z
         if self.position[2] >= gz and (self.velocity[2] >= 0.0 or self.acceleration[2] >= 0.0):
-            # touching down or resting: the ground takes the load and stops the vehicle
+            # touching down or resting: the ground takes the load and stops the vehicle, levels it
+            # and stops its turning (SIH's ground zeroes the body rates)
             self.position[2] = gz
             self.velocity = [0.0, 0.0, 0.0]
             self.acceleration = [min(a, 0.0) if i == 2 else 0.0 for i, a in enumerate(self.acceleration)]
+            self.tilt[0], self.tilt[1], self.tilt[2] = 0.0, 0.0, 1.0
+            self.tilt_rates[0] = self.tilt_rates[1] = self.tilt_rates_dot[0] = self.tilt_rates_dot[1] = 0.0
             if not self.ground_contact:
                 self.ground_contact, self.contact_since_s = True, now_s
-        elif self.position[2] < gz - 0.02:
+            return True
+        if self.position[2] < gz - 0.02:
             self.ground_contact, self.contact_since_s = False, None
+        return False
 
     def _reset_stages(self, state):
         self._stages = {name: [state, None] for name in ('contact', 'maybe', 'landed')}
@@ -417,24 +512,27 @@ class Vehicle:
     # -- derived quantities ---------------------------------------------------------------
 
     def attitude(self):
-        """(w, x, y, z) NED/FRD quaternion: the thrust's direction, with the yaw."""
+        """(w, x, y, z) NED/FRD quaternion: the body's tilt, with the yaw."""
         if self._attitude is None:
-            t = self.thrust
-            if t[0] == 0.0 and t[1] == 0.0 and t[2] >= 0.0:
-                self._attitude = quaternion_from_thrust((0.0, 0.0, 0.0), self.yaw)
-            else:
-                self._attitude = quaternion_from_thrust((t[0], t[1], t[2] + GRAVITY), self.yaw)
+            b = self.tilt
+            self._attitude = quaternion_from_thrust((-b[0], -b[1], GRAVITY - b[2]), self.yaw)
         return self._attitude
 
     def collective_thrust(self):
         """Normalised thrust 0..1 the rotors give now."""
-        tx, ty, tz = self.thrust
-        return min(1.0, math.sqrt(tx * tx + ty * ty + tz * tz))
+        return min(1.0, self.collective)
 
     def specific_force_body(self):
-        """What an accelerometer reads (m/s^2, FRD): acceleration minus gravity, in body axes."""
+        """What the accelerometer reads (m/s^2, FRD), with its noise (sim.sensors)."""
+        return self.imu.accel
+
+    def _specific_force(self):
+        """The true specific force (m/s^2, FRD): acceleration minus gravity, in body axes, without
+        the gust (it stands for the estimate's drift: SIH has no wind, its accelerometer reads thrust
+        and drag)."""
         w, x, y, z = self.attitude()
-        f = (self.acceleration[0], self.acceleration[1], self.acceleration[2] - GRAVITY)
+        a, gust = self.acceleration, self._gust
+        f = (a[0] - gust[0], a[1] - gust[1], a[2] - gust[2] - GRAVITY)
         # rotate world->body: R^T f
         r00, r01, r02 = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
         r10, r11, r12 = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
