@@ -5,7 +5,8 @@ For one vehicle: stream quality at the FCU, latency from publication in ROS to a
 at the FCU, CPU and memory of each process, time to hover split by phase. Then N
 vehicles for each N in --scale until a vehicle misses the bar (p99 inter-arrival
 <= 60 ms and no gap over 200 ms). Prints a markdown table and writes JSON.
-Run it through `./run bench` (which sets up and sources the workspace).
+Run it through `./run bench` (which sets up and sources the workspace); `./run bench --replay [args]`
+measures the bridge alone on PX4 SITL's recorded stream instead (bench/replay_bench.py).
 """
 
 import argparse
@@ -220,6 +221,10 @@ def fmt(value, digits=1):
 
 
 def main():
+    if '--replay' in sys.argv[1:]:  # the bridge alone on PX4 SITL's recorded stream: bench/replay_bench.py
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import replay_bench
+        return replay_bench.main([a for a in rospy.myargv()[1:] if a != '--replay'])
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--duration', type=float, default=60.0, help='hover seconds measured for one vehicle (60)')
     p.add_argument('--scale', default='1,2,4,8,16,24,32', help='vehicle counts to try, in order (1,2,4,8,16,24,32)')
