@@ -105,6 +105,8 @@ class Replay:
         self.seq = 0
         self.counts = collections.Counter()
         self.setpoints = []  # (arrival ns, time_boot_ms)
+        self.timesync_sent = {}  # ts1 of a TIMESYNC request sent -> when (s)
+        self.timesync_rtt_ms = []  # how long the bridge took to answer each
         self.queue = collections.deque()  # (due s, msg): answers paced as PX4 paced them
         self.parser = mavlink.MAVLink(None)
         self.parser.robust_parsing = True
@@ -130,6 +132,10 @@ class Replay:
         self.counts['in ' + kind] += 1
         if kind == 'SET_POSITION_TARGET_LOCAL_NED':
             self.setpoints.append((time.time_ns(), msg.time_boot_ms))
+        elif kind == 'TIMESYNC' and msg.tc1 != 0:  # the bridge answers PX4's request
+            sent_s = self.timesync_sent.pop(msg.ts1, None)
+            if sent_s is not None:
+                self.timesync_rtt_ms.append((now_s - sent_s) * 1e3)
         elif kind == 'TIMESYNC' and msg.tc1 == 0:
             reply = mavlink.MAVLink_timesync_message(int(self.boot_us(now_s) * 1000), msg.ts1)
             first = self.stream[0][1]  # from the autopilot's system and component
@@ -163,6 +169,8 @@ class Replay:
                 for name, value, per_us in self.clock_fields[index]:
                     setattr(msg, name, int(value + passes * self.window_us * per_us))
                 self.send(msg)
+                if self.clock_fields[index] and msg.get_type() == 'TIMESYNC':
+                    self.timesync_sent[msg.ts1] = now_s
                 index += 1
                 if index == len(self.stream):
                     index, passes = 0, passes + 1
@@ -183,6 +191,11 @@ class Replay:
                     for msg in self.parser.parse_buffer(data) or []:
                         self.answer(msg, self.clock())
         self.counts['passes'] = passes
+        rtts = sorted(self.timesync_rtt_ms)
+        if rtts:
+            self.counts['timesync answer ms p50'] = rtts[len(rtts) // 2]
+            self.counts['timesync answer ms p99'] = rtts[min(len(rtts) - 1, int(len(rtts) * 0.99))]
+            self.counts['timesync answer ms max'] = rtts[-1]
 
 
 def load(path=DATA):

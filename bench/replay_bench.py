@@ -70,7 +70,7 @@ class TopicRates:
     SKIP = ('/mavros/setpoint', '/mavros/mavlink/to')
 
     def __init__(self):
-        self.subs, self.seen = [], {}
+        self.subs, self.seen, self.rtt_ms = [], {}, []
         for topic, kind in rospy.get_published_topics('/mavros'):
             if topic.startswith(self.SKIP):
                 continue
@@ -81,6 +81,8 @@ class TopicRates:
             self.subs.append(rospy.Subscriber(topic, cls, self._on, callback_args=topic, queue_size=100))
 
     def _on(self, msg, topic):
+        if hasattr(msg, 'round_trip_time_ms'):
+            self.rtt_ms.append(msg.round_trip_time_ms)
         header = getattr(msg, 'header', None)
         stamp = header.stamp.to_nsec() if header is not None and hasattr(header, 'stamp') else None
         self.seen[topic].append((time.time_ns(), stamp))
@@ -150,7 +152,8 @@ def run_once(args, logdir, index):
         cpu_sub, wake_sub = measure_window({'bridge': pids['bridge']}, args.rates_duration)
         r1 = time.time_ns()
         rates.close()
-        result = {'cpu_pct': cpu, 'wakeups_per_s': wake, 'topics': rates.table(r0, r1),
+        result = {'timesync_rtt_ms': {'p50': percentile(rates.rtt_ms, 50), 'max': max(rates.rtt_ms or [None])},
+                  'cpu_pct': cpu, 'wakeups_per_s': wake, 'topics': rates.table(r0, r1),
                   'bridge_cpu_pct_all_topics_subscribed': cpu_sub['bridge'],
                   'bridge_wakeups_per_s_all_topics_subscribed': wake_sub['bridge'],
                   'last_state': {'connected': state[-1].connected, 'armed': state[-1].armed, 'mode': state[-1].mode}}
@@ -169,7 +172,6 @@ def run_once(args, logdir, index):
                             'max': max(lat) if lat else None}
     result['setpoints_at_fcu_hz'] = len(inside) / ((t1 - t0) / 1e9)
     result['replay'] = json.load(open(stats_file))
-    result['replay_datagrams_per_s'] = None
     return result
 
 
@@ -223,6 +225,10 @@ def print_run(r):
              % (fmt(r['latency_ms']['p50'], 2), fmt(r['latency_ms']['p99'], 2), fmt(r['latency_ms']['max'], 2),
                 LATENCY_P99_MS),
              '| setpoints at the FCU | %s Hz | 20 |' % fmt(r['setpoints_at_fcu_hz'], 2),
+             '| the bridge\'s answer to PX4\'s TIMESYNC p50 / p99 / max | %s / %s / %s ms | < 10 (RTT limit) |'
+             % tuple(fmt(r['replay'].get('timesync answer ms ' + k), 2) for k in ('p50', 'p99', 'max')),
+             '| the bridge\'s TIMESYNC round trip (timesync_status) p50 / max | %s / %s ms | < 10 |'
+             % (fmt(r.get('timesync_rtt_ms', {}).get('p50'), 2), fmt(r.get('timesync_rtt_ms', {}).get('max'), 2)),
              '| bridge CPU with every topic subscribed | %s %% | |' % fmt(r['bridge_cpu_pct_all_topics_subscribed'], 2),
              '', '| topic (all subscribed) | rate (Hz) | stamp lag p50 / max (ms) |', '|---|---|---|']
     for topic, t in r['topics'].items():

@@ -227,18 +227,17 @@ class MavlinkLink:
         return self._pack_all((msg,))[0]
 
     def _pack_all(self, msgs):
-        """The frames of msgs (pymavlink messages or wire.Packed ones), numbered in order."""
+        """The frames of msgs (pymavlink messages), numbered in order by this link's codec (which signs
+        them when signing is on)."""
         with self._send_lock:
             mav = self.mav
-            seq, system_id, component_id = mav.seq, mav.srcSystem, mav.srcComponent
+            seq = mav.seq
             frames = []
             for msg in msgs:
                 if mav.signing.sign_outgoing:
                     self.signing.stamp_outgoing()
-                    mav.seq = seq
-                    frames.append(msg.pack(mav))  # pymavlink signs; it numbers the frame with mav.seq
-                else:
-                    frames.append(wire.encode(msg, seq, system_id, component_id))
+                mav.seq = seq  # pymavlink's pack() numbers the frame with it and leaves it as it was
+                frames.append(msg.pack(mav))
                 seq = (seq + 1) & 0xFF
             mav.seq = seq
             self.stats['messages_sent'] += len(frames)
@@ -303,7 +302,7 @@ class MavlinkLink:
         end of one datagram must not swallow the frames of the next.
 
         Only the frames of message types a handler reads are decoded (wire.decode: pymavlink's
-        message objects, made faster); the others are CRC-checked and counted, as the MAVLink C
+        decode); the others are CRC-checked and counted, as the MAVLink C
         library frames what it does not use. With signing on, every frame goes through
         pymavlink's decode: its signature decides whether it counts."""
         self.stats['datagrams'] += 1

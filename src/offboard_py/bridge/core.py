@@ -22,7 +22,6 @@ import time
 
 import rospy
 
-from offboard_py import wire
 from offboard_py.bridge import filters
 from offboard_py.bridge.attitude import Attitude
 
@@ -42,8 +41,8 @@ class Bridge:
         self.target_system = cfg['target_system_id']
         self.target_component = cfg['target_component_id']
         self.link = link
-        # what plugins build they send: pymavlink's encode methods without message objects
-        self.mav = wire.PackingCodec(link.mav)
+        # the codec whose xxx_encode() methods build what plugins send (the link packs and numbers it)
+        self.mav = link.mav
         self.gcs = gcs
         if gcs:
             link.on_datagram = gcs.send_bytes     # FCU -> GCS, raw
