@@ -123,8 +123,11 @@ def run_once(args, logdir, index):
     stats_file = os.path.join(logdir, 'replay-stats-%d.json' % index)
     replay = start([sys.executable, os.path.join(HERE, 'px4_replay.py'), '--setpoint-log', setpoint_log,
                     '--stats', stats_file] + (['--data', args.data] if args.data else []), logdir, 'replay-%d' % index)
+    bridge_env = None
+    if args.bridge_src:  # another checkout's offboard_py, ahead of this one's
+        bridge_env = {'PYTHONPATH': os.path.abspath(args.bridge_src) + os.pathsep + os.environ.get('PYTHONPATH', '')}
     bridge = start(['rosrun', 'offboard_py', 'mavros_bridge.py', '__name:=mavros',
-                    '_fcu_url:=udp://:14540@127.0.0.1:14580'], logdir, 'bridge-%d' % index)
+                    '_fcu_url:=udp://:14540@127.0.0.1:14580'], logdir, 'bridge-%d' % index, env=bridge_env)
     node = start(['rosrun', 'offboard_py', 'offb_node.py'], logdir, 'node-%d' % index)
     state = []
     stamps = []
@@ -189,6 +192,8 @@ def main(argv=None):
     p.add_argument('--duration', type=float, default=60.0, help='seconds of the CPU window (60)')
     p.add_argument('--rates-duration', type=float, default=15.0, help='seconds of the topic-rate window (15)')
     p.add_argument('--runs', type=int, default=1, help='replays one after the other (1)')
+    p.add_argument('--bridge-src', metavar='DIR',
+                   help="run the bridge from another checkout's src/ (the one holding offboard_py/), for A/B runs")
     p.add_argument('--data', help='the replay data (default bench/data/px4-hover-replay.json.xz)')
     p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench-replay.json'), help='JSON output')
     args = p.parse_args(argv)
@@ -205,7 +210,7 @@ def main(argv=None):
             print_run(runs[-1])
     finally:
         benchmark.stop_master(core)
-    result = {'machine': benchmark.machine(), 'command': ' '.join(sys.argv), 'date_utc': time.strftime(
+    result = {'machine': benchmark.machine(), 'command': ' '.join(sys.argv), 'bridge_src': args.bridge_src, 'date_utc': time.strftime(
         '%Y-%m-%d %H:%M', time.gmtime()), 'runs': runs, 'logs': logdir}
     benchmark.write_json(result, args.out)
     return 0

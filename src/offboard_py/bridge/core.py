@@ -51,6 +51,7 @@ class Bridge:
         self._clock = clock
         self._periodic = []  # [period_s, next_s, callback]
         self._one_shots = []  # (due_s, callback): after_connect
+        self._tasks_added = False  # a task was added: the receive loop works out its next wake-up again
         self.connection_epoch = 0  # counts connections: a retry loop ends with its own
         self.connected = False
         self._connection_listeners = []
@@ -145,6 +146,7 @@ class Bridge:
         """Call callback(now_s) every period_s from the receive thread; returns the task (for take_early)."""
         task = [period_s, self._clock(), callback]
         self._periodic.append(task)
+        self._tasks_added = True
         return task
 
     def take_early(self, task, now_s):
@@ -187,6 +189,7 @@ class Bridge:
         def start(connected):
             if connected:
                 self._one_shots.append((self._clock() + delay_s, callback))
+                self._tasks_added = True
         self.on_connection(start)
 
     def _run_one_shots(self, now_s):
@@ -257,8 +260,11 @@ class Bridge:
             links[link.fileno()] = link
             poller.register(link.fileno(), select.POLLIN)
         longest_wait_s = MAX_WAIT_S if self._clock is time.monotonic else WAIT_SLICE_S
+        due_s = None  # the next wake-up the tasks need (bridge clock), worked out again after they run
         while self._running and not self.is_shutdown():
-            due_s = self._next_due_s()
+            if due_s is None or self._tasks_added:
+                self._tasks_added = False
+                due_s = self._next_due_s()
             wait_s = longest_wait_s if due_s is None else min(longest_wait_s, max(0.0, due_s - self._clock()))
             try:
                 events = poller.poll(wait_s * 1000.0)
@@ -266,10 +272,13 @@ class Bridge:
                 break  # sockets closed at shutdown
             for fd, _ in events:
                 links[fd].receive()
+            # most wake-ups are a datagram's: the tasks are looked at only once one is due
             now_s = self._clock()
-            self.run_periodic(now_s)
-            if self._one_shots:
-                self._run_one_shots(now_s)
+            if due_s is not None and now_s >= due_s - TIMER_SLACK_S:
+                self.run_periodic(now_s)
+                if self._one_shots:
+                    self._run_one_shots(now_s)
+                due_s = None
 
     def stop(self):
         self._running = False
