@@ -118,6 +118,12 @@ def decode(msg_id, frame):
     return _DECODER.decode(bytearray(frame))
 
 
+def decode_checked(frame):
+    """pymavlink's message of a frame a link has already checked (its CRC, and its signature when the
+    link signs), signed or not: for a reader that kept the frame (MavlinkLink.on_raw) and decodes it late."""
+    return _DECODER.decode(bytearray(frame))
+
+
 _DECODER = mavlink.MAVLink(None)  # no signing, no state: decode() only reads its header formats
 
 

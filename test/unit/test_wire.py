@@ -202,6 +202,26 @@ def test_link_decodes_a_type_only_while_a_handler_needs_it(link, monkeypatch):
     assert len(got) == 2, 'one handler that always reads a type decodes it for all of them'
 
 
+def test_link_gives_kept_frames_undecoded_in_their_turn(link, monkeypatch):
+    """on_raw(): every valid frame of the type, decoded or not, before the handlers of its own message and
+    after those of the messages before it in the datagram; a bad one is not given."""
+    decoded, calls = [], []
+    real_decode = wire.decode
+    monkeypatch.setattr(wire, 'decode', lambda msg_id, data: decoded.append(msg_id) or real_decode(msg_id, data))
+    link.on_raw('ATTITUDE', lambda data: calls.append(('raw', data[4])))
+    link.on('HEARTBEAT', lambda msg: calls.append(('HEARTBEAT', msg.get_seq())))
+    bad = bytearray(frame(ATT, seq=3))
+    bad[-1] ^= 0xFF
+    link.handle_datagram(frame(HB, seq=1) + frame(ATT, seq=2) + bytes(bad), ('127.0.0.1', 14580))
+    assert calls == [('HEARTBEAT', 1), ('raw', 2)] and decoded == [mavlink.MAVLINK_MSG_ID_HEARTBEAT]
+    assert link.stats['received'] == 2 and link.stats['bad_frames'] == 1
+    got = []
+    link.on('ATTITUDE', lambda msg: got.append(msg.get_seq()) or calls.append(('ATTITUDE', msg.get_seq())))
+    link.handle_datagram(frame(ATT, seq=4), ('127.0.0.1', 14580))
+    assert calls[-2:] == [('raw', 4), ('ATTITUDE', 4)], 'kept first, then the handlers of the same message'
+    assert wire.decode_checked(frame(ATT, seq=4)).get_seq() == 4
+
+
 def test_link_counts_bad_frames_and_junk_moves_nothing(link):
     bad = bytearray(frame(ATT))
     bad[-1] ^= 0xFF

@@ -22,6 +22,7 @@ import time
 
 import rospy
 
+from offboard_py import wire
 from offboard_py.bridge import filters
 from offboard_py.bridge.attitude import Attitude
 
@@ -60,7 +61,7 @@ class Bridge:
         self.commands = None  # the command plugin's COMMAND_ACK waiter, when loaded: expect(cmd)
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         # registered before any plugin's handler, so readers see this message's attitude
-        self.on('ATTITUDE_QUATERNION', self.attitude.update)
+        self.on_raw('ATTITUDE_QUATERNION', self.attitude.update)
         self.plugins = [plugin(self) for plugin in plugins]
         self._running = False
         self._thread = None
@@ -76,6 +77,17 @@ class Bridge:
             if accept(msg, self.target_system, self.target_component):
                 handler(msg)
         self.link.on(msg_type, filtered, needed)
+
+    def on_raw(self, msg_type, hook):
+        """Call hook(frame bytes) for each `msg_type` frame from the target system, decoded or not, before
+        the handlers of the same message: a cache keeps the latest and decodes it when read
+        (wire.decode_checked), as mavros's UAS keeps the latest attitude and IMU data."""
+        target = self.target_system
+
+        def filtered(frame):
+            if (frame[5] if frame[0] == wire.MAGIC_V2 else frame[3]) == target:  # filters.SYSTEM on the header
+                hook(frame)
+        self.link.on_raw(msg_type, filtered)
 
     @staticmethod
     def listened(*publishers):
