@@ -296,15 +296,18 @@ class MavlinkLink:
         return True
 
     def receive(self, max_datagrams=256):
-        """Drain up to max_datagrams pending datagrams and dispatch what they hold."""
+        """Drain up to max_datagrams pending datagrams and dispatch what they hold; how many were read."""
+        count = 0
         for _ in range(max_datagrams):
             try:
                 data, sender = self.sock.recvfrom(MAX_DATAGRAM)
             except (BlockingIOError, InterruptedError):
-                return
+                break
             except ConnectionRefusedError:
                 continue  # an ICMP error for an earlier send, not a datagram
+            count += 1
             self.handle_datagram(data, sender)
+        return count
 
     def handle_datagram(self, data, sender=None):
         """Take one datagram on its own: UDP carries whole frames, so a truncated frame at the
