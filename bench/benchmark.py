@@ -5,7 +5,8 @@ For one vehicle: stream quality at the FCU, latency from publication in ROS to a
 at the FCU, CPU and memory of each process, time to hover split by phase. Then N
 vehicles for each N in --scale until a vehicle misses the bar (p99 inter-arrival
 <= 60 ms and no gap over 200 ms). Prints a markdown table and writes JSON.
-Run it through `./run bench` (which sets up and sources the workspace).
+Run it through `./run bench` (which sets up and sources the workspace); `./run bench --replay [args]`
+measures the bridge alone on PX4 SITL's recorded stream instead (bench/replay_bench.py).
 """
 
 import argparse
@@ -133,19 +134,22 @@ def forget_stale_nodes(prefixes=('/uav', '/sim_clock')):
     return stale
 
 
-def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None):
+def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None, pack_datagrams=False):
     """Fly n vehicles to 2 m, hover duration_s, and measure. At another speed than 1 the stack runs in
     simulated time: the hover lasts duration_s simulated seconds and the stream is timed on that clock
     (the simulator logs arrivals on it, the node stamps on /clock). `beside`: what else runs meanwhile
     (bench/junk_flood.py's flood): beside.start() right after the launch, beside.finish(watches)
-    after the measurement and before the stack stops (it may wait, bounded, for what it watches)."""
+    after the measurement and before the stack stops (it may wait, bounded, for what it watches).
+    `pack_datagrams`: the simulator packs its messages into few datagrams (its --pack-datagrams, NOT PX4's
+    framing); by default it frames one message a datagram, as PX4 does."""
     clock = SimClock(speed)
     startup_timeout_s = startup_timeout_s or startup_bound_s(n)
     # arrivals as the simulator logs them: Unix ns in real time, simulated ns otherwise
     now_ns = time.time_ns if clock.real_time else lambda: int(clock.now() * 1e9)
     launch_log = open(os.path.join(logdir, 'launch-%d-%g.log' % (n, speed)), 'w')
     launch = subprocess.Popen(['roslaunch', 'offboard_py', 'multi_uav.launch', 'n:=%d' % n, 'log_output:=log',
-                               'sim_args:=--setpoint-log %s' % logdir, 'speed:=%g' % speed],
+                               'sim_args:=--setpoint-log %s%s' % (logdir, ' --pack-datagrams' if pack_datagrams else ''),
+                               'speed:=%g' % speed],
                               stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
     stamps = [] if latency else None
     watches = [Watch('/uav%d' % i, clock.now(), stamps if i == 0 else None, clock) for i in range(n)]
@@ -205,11 +209,22 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
     return vehicles
 
 
+def framing(pack_datagrams):
+    """What the simulator's datagrams carry, for the tables."""
+    if pack_datagrams:
+        return 'packed datagrams (--pack-datagrams): NOT PX4\'s framing, real mavros cannot read them'
+    return 'one MAVLink message a datagram, as PX4 sends'
+
+
 def fmt(value, digits=1):
     return '-' if value is None else ('%.*f' % (digits, value))
 
 
 def main():
+    if '--replay' in sys.argv[1:]:  # the bridge alone on PX4 SITL's recorded stream: bench/replay_bench.py
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import replay_bench
+        return replay_bench.main([a for a in rospy.myargv()[1:] if a != '--replay'])
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--duration', type=float, default=60.0, help='hover seconds measured for one vehicle (60)')
     p.add_argument('--scale', default='1,2,4,8,16,24,32', help='vehicle counts to try, in order (1,2,4,8,16,24,32)')
@@ -217,6 +232,9 @@ def main():
     p.add_argument('--speed', default='5',
                    help='also measure one vehicle in simulated time at this speed, the setpoint stream timed in '
                         'simulated seconds beside real time (default 5, what ./run test uses; 1: skip)')
+    p.add_argument('--pack-datagrams', action='store_true',
+                   help="NOT PX4's framing: the simulator packs its messages into as few datagrams as fit 1400 bytes "
+                        "(its --pack-datagrams); by default it sends one MAVLink message a datagram, as PX4 does")
     p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench.json'), help='JSON output')
     args = p.parse_args(rospy.myargv()[1:])
     try:
@@ -283,7 +301,7 @@ def _measure_speed(args, logdir, single):
     """One vehicle in simulated time at args.speed, its stream beside the real-time run's."""
     print('one vehicle in simulated time at %gx, %.0f simulated s of hover ...' % (args.speed, args.duration),
           flush=True)
-    sped = run(1, args.duration, logdir, latency=True, speed=args.speed)[0]
+    sped = run(1, args.duration, logdir, latency=True, speed=args.speed, pack_datagrams=args.pack_datagrams)[0]
     rows = [('setpoint rate at the FCU (Hz)', 'rate_hz', 3), ('inter-arrival p50 (ms)', 'p50_ms', 1),
             ('inter-arrival p99 (ms)', 'p99_ms', 1), ('inter-arrival max (ms)', 'max_ms', 1),
             ('gaps over 100 ms', 'gaps_over_100ms', 0)]
@@ -309,9 +327,10 @@ def _measure_speed(args, logdir, single):
 
 def _measure(args, scale, logdir):
     result = {'machine': machine(),
-              'command': ' '.join(sys.argv)}
+              'command': ' '.join(sys.argv), 'framing': framing(args.pack_datagrams)}
+    print('simulator framing: %s' % result['framing'], flush=True)
     print('one vehicle, %.0f s of hover ...' % args.duration, flush=True)
-    single = run(1, args.duration, logdir, latency=True)[0]
+    single = run(1, args.duration, logdir, latency=True, pack_datagrams=args.pack_datagrams)[0]
     result['single'] = single
     s, lat, ph = single['stream'], single['latency_ms'], single['phases_s']
     total = sum(v for v in single['cpu_pct'].values() if v is not None)
@@ -323,6 +342,8 @@ def _measure(args, scale, logdir):
         return value is not None and value <= limit
     rate_ok = s['rate_hz'] is not None and abs(s['rate_hz'] - 20.0) <= 0.1
     lines = ['| measure (1 vehicle, %.0f s hover) | value | target | met |' % args.duration, '|---|---|---|---|',
+             '| simulator framing | %s | one message a datagram (PX4) | %s |'
+             % (result['framing'], met(not args.pack_datagrams)),
              '| setpoint rate at the FCU | %s Hz | 20.0 +- 0.5 %% | %s |' % (fmt(s['rate_hz'], 3), met(rate_ok)),
              '| inter-arrival p50 / p99 / max | %s / %s / %s ms | p99 <= 55, max <= 100 | %s |'
              % (fmt(s['p50_ms']), fmt(s['p99_ms']), fmt(s['max_ms']), met(within(s['p99_ms'], 55) and within(s['max_ms'], 100))),
@@ -343,7 +364,7 @@ def _measure(args, scale, logdir):
     for n in scale:
         print('%d vehicles, %.0f s of hover ...' % (n, args.scale_duration), flush=True)
         try:
-            vehicles = run(n, args.scale_duration, logdir)
+            vehicles = run(n, args.scale_duration, logdir, pack_datagrams=args.pack_datagrams)
         except RuntimeError as err:
             steps.append({'n': n, 'error': str(err)})
             print('  %s' % err, flush=True)
@@ -359,7 +380,8 @@ def _measure(args, scale, logdir):
         largest = n
     result['scaling'] = steps
     result['largest_n_holding_bar'] = largest
-    table = ['| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) | bar |',
+    table = ['simulator framing: %s' % result['framing'], '',
+             '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) | bar |',
              '|---|---|---|---|---|---|']
     for st in steps:
         if 'error' in st:

@@ -165,6 +165,7 @@ class MavlinkLink:
         self._wanted_ids = set()  # the message ids some handler reads: only these are decoded ...
         self._always_ids = set()  # ... these always ...
         self._needed = {}         # ... and these (id -> [needed()]) while one of their handlers needs them
+        self._raw_hooks = {}      # id -> [hook(frame)]: given the checked frame, decoded or not
         self._last_seq = {}       # (system, component) -> the last sequence number received
         self.on_datagram = None  # optional raw hook: on_datagram(bytes) for each datagram with a valid frame
         self._frame_hook = None  # on_frames(): (hook, needed) for the raw frames
@@ -201,6 +202,14 @@ class MavlinkLink:
         else:
             self._needed.setdefault(msg_id, []).append(needed)
 
+    def on_raw(self, msg_type, hook):
+        """Call hook(frame bytes) for every valid frame of type `msg_type`, decoded or not, in its turn
+        among the handlers: for a reader that keeps the latest and decodes it only when it is asked
+        (wire.decode_checked), as most of PX4's 50 Hz attitude and IMU messages are read by nobody."""
+        msg_id = wire.msg_id(msg_type)
+        self._raw_hooks.setdefault(msg_id, []).append(hook)
+        self._wanted_ids.add(msg_id)
+
     def on_frames(self, hook, needed=None):
         """Call hook(frame bytes) for each valid frame, read or not, while `needed()` says so
         (None: always; asked once a datagram), as on() does for messages."""
@@ -208,7 +217,7 @@ class MavlinkLink:
 
     def _needed_now(self, msg_id):
         """Whether a frame of this wanted type is to be decoded now."""
-        return msg_id in self._always_ids or any(needed() for needed in self._needed[msg_id])
+        return msg_id in self._always_ids or any(needed() for needed in self._needed.get(msg_id, ()))
 
     # -- signing ----------------------------------------------------------------------------
 
@@ -227,18 +236,17 @@ class MavlinkLink:
         return self._pack_all((msg,))[0]
 
     def _pack_all(self, msgs):
-        """The frames of msgs (pymavlink messages or wire.Packed ones), numbered in order."""
+        """The frames of msgs (pymavlink messages), numbered in order by this link's codec (which signs
+        them when signing is on)."""
         with self._send_lock:
             mav = self.mav
-            seq, system_id, component_id = mav.seq, mav.srcSystem, mav.srcComponent
+            seq = mav.seq
             frames = []
             for msg in msgs:
                 if mav.signing.sign_outgoing:
                     self.signing.stamp_outgoing()
-                    mav.seq = seq
-                    frames.append(msg.pack(mav))  # pymavlink signs; it numbers the frame with mav.seq
-                else:
-                    frames.append(wire.encode(msg, seq, system_id, component_id))
+                mav.seq = seq  # pymavlink's pack() numbers the frame with it and leaves it as it was
+                frames.append(msg.pack(mav))
                 seq = (seq + 1) & 0xFF
             mav.seq = seq
             self.stats['messages_sent'] += len(frames)
@@ -288,22 +296,25 @@ class MavlinkLink:
         return True
 
     def receive(self, max_datagrams=256):
-        """Drain up to max_datagrams pending datagrams and dispatch what they hold."""
+        """Drain up to max_datagrams pending datagrams and dispatch what they hold; how many were read."""
+        count = 0
         for _ in range(max_datagrams):
             try:
                 data, sender = self.sock.recvfrom(MAX_DATAGRAM)
             except (BlockingIOError, InterruptedError):
-                return
+                break
             except ConnectionRefusedError:
                 continue  # an ICMP error for an earlier send, not a datagram
+            count += 1
             self.handle_datagram(data, sender)
+        return count
 
     def handle_datagram(self, data, sender=None):
         """Take one datagram on its own: UDP carries whole frames, so a truncated frame at the
         end of one datagram must not swallow the frames of the next.
 
         Only the frames of message types a handler reads are decoded (wire.decode: pymavlink's
-        message objects, made faster); the others are CRC-checked and counted, as the MAVLink C
+        decode); the others are CRC-checked and counted, as the MAVLink C
         library frames what it does not use. With signing on, every frame goes through
         pymavlink's decode: its signature decides whether it counts."""
         self.stats['datagrams'] += 1
@@ -321,7 +332,10 @@ class MavlinkLink:
         if self._frame_hook is not None and (self._frame_hook[1] is None or self._frame_hook[1]()):
             frame_hook = self._frame_hook[0]
         last_seq = self._last_seq
-        messages, undecoded, bad, foreign, dropped, from_peer = [], 0, 0, 0, 0, peer is None
+        raw_hooks = self._raw_hooks
+        handlers = self.handlers
+        # what to call, in the frames' order: (handlers, message) or (raw hooks, frame)
+        messages, dispatch, undecoded, bad, foreign, dropped, from_peer = [], [], 0, 0, 0, 0, peer is None
         needed_now = {}
         for msg_id, frame in wire.split(data):
             if msg_id is None:
@@ -340,16 +354,22 @@ class MavlinkLink:
                 continue
             if decode_all:
                 try:
-                    messages.append(self.mav.decode(bytearray(frame)))
+                    msg = self.mav.decode(bytearray(frame))
                 except Exception:  # pymavlink raises assorted errors on hostile bytes
                     bad += 1
                     continue
+                if msg_id in raw_hooks:
+                    dispatch.append((raw_hooks[msg_id], frame))
+                messages.append(msg)
+                dispatch.append((handlers.get(msg.get_type(), ()), msg))
             elif not wire.crc_ok(msg_id, frame):
                 bad += 1
                 continue
             elif msg_id not in wanted:
                 undecoded += 1
             else:
+                if msg_id in raw_hooks:
+                    dispatch.append((raw_hooks[msg_id], frame))
                 needed = needed_now.get(msg_id)
                 if needed is None:  # asked once a datagram
                     needed = needed_now[msg_id] = self._needed_now(msg_id)
@@ -358,10 +378,14 @@ class MavlinkLink:
                 else:
                     try:
                         msg = wire.decode(msg_id, frame)
-                        messages.append(msg if msg is not None else self.mav.decode(bytearray(frame)))
+                        msg = msg if msg is not None else self.mav.decode(bytearray(frame))
                     except Exception:  # hostile bytes: a string field that is not UTF-8, ...
+                        if msg_id in raw_hooks:
+                            dispatch.pop()
                         bad += 1
                         continue
+                    messages.append(msg)
+                    dispatch.append((handlers.get(msg.get_type(), ()), msg))
             from_peer = from_peer or source == peer
             # frames a sender's sequence numbers say were lost, per sender
             seq = frame[4] if v2 else frame[2]
@@ -388,9 +412,9 @@ class MavlinkLink:
         if self.on_datagram is not None:
             self.on_datagram(data)
         self.stats['received'] += len(messages) + undecoded
-        for msg in messages:
-            for handler in self.handlers.get(msg.get_type(), ()):
-                self._call(handler, msg)
+        for callees, arg in dispatch:
+            for callee in callees:
+                self._call(callee, arg)
 
     def _lock_partner(self, sender):
         """PX4's UDP rule (mavlink_receiver.cpp, v1.10 to main): until the partner is known, the sender

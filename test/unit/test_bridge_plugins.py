@@ -40,6 +40,7 @@ class FakeLink:
     def __init__(self):
         self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_UDP_BRIDGE)
         self.handlers = {}
+        self.raw_hooks = {}
         self.stats = collections.Counter()
         self.fcu = None
         self._lock = threading.Lock()
@@ -48,6 +49,10 @@ class FakeLink:
         """Every message goes to every handler: the link's skipping of unneeded types is MavlinkLink's
         (test_wire, and test_unneeded_types_are_not_decoded below)."""
         self.handlers.setdefault(msg_type, []).append(handler)
+
+    def on_raw(self, msg_type, hook):
+        """A kept frame is given before the handlers of the same message, as MavlinkLink does."""
+        self.raw_hooks.setdefault(msg_type, []).append(hook)
 
     def on_frames(self, hook, needed=None):
         """Raw frames are MavlinkLink's (test_link_partner); this link hands out messages only."""
@@ -61,6 +66,8 @@ class FakeLink:
 
     def handle_datagram(self, data):
         for msg in mavlink.MAVLink(None).parse_buffer(data) or []:
+            for hook in self.raw_hooks.get(msg.get_type(), ()):
+                hook(bytes(msg.get_msgbuf()))
             for handler in self.handlers.get(msg.get_type(), ()):
                 handler(msg)
 
@@ -717,9 +724,9 @@ def test_pose_orientation_is_identity_before_any_attitude():
 def test_unneeded_types_are_not_decoded_and_a_subscriber_brings_them_back(monkeypatch):
     """On the real link: with no subscriber to what LOCAL_POSITION_NED and GLOBAL_POSITION_INT feed
     (the latter after the map origin), their frames are checked and counted but not decoded; a
-    subscriber gets the very next message. ATTITUDE_QUATERNION and HIGHRES_IMU are always read:
-    the first pose or IMU message a new subscriber gets must carry the attitude and acceleration
-    of now, and on PX4's wire (a datagram per message) the attitude may have come before."""
+    subscriber gets the very next message. ATTITUDE_QUATERNION and HIGHRES_IMU frames are always
+    kept, and decoded only when read: the first pose or IMU message a new subscriber gets must carry
+    the attitude and acceleration of now, and on PX4's wire (a datagram per message) they came before."""
     from offboard_py.mavlink_link import MavlinkLink
     link = MavlinkLink(('127.0.0.1', 0), None, 1, mavlink.MAV_COMP_ID_UDP_BRIDGE, peer=(1, 1))
     ros = FakeRos()
@@ -743,9 +750,15 @@ def test_unneeded_types_are_not_decoded_and_a_subscriber_brings_them_back(monkey
     datagram(gps, gpi)
     gp = next(plugin for plugin in bridge.plugins if isinstance(plugin, global_position.GlobalPosition))
     assert gp.origin is not None, 'GLOBAL_POSITION_INT is read until the map origin is known'
-    datagram(north)
-    datagram(south)  # the attitude of now, while nobody listens
+    late = []
+    decode_checked = wire.decode_checked
+    monkeypatch.setattr(wire, 'decode_checked', lambda frame: late.append(frame) or decode_checked(frame))
     del decoded[:]
+    accel = BUILD.highres_imu_encode(1010, 0.5, 0.25, -9.75, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+    datagram(north)
+    datagram(accel)
+    datagram(south)  # the attitude of now, while nobody listens
+    assert decoded == [] and late == [], 'attitude and IMU frames kept, not decoded, while nobody reads them'
     received = link.stats['received']
     datagram(lpn, gpi)
     assert decoded == [] and link.stats['received'] == received + 2 and link.stats['bad_frames'] == 0
@@ -757,6 +770,12 @@ def test_unneeded_types_are_not_decoded_and_a_subscriber_brings_them_back(monkey
     q = pose.pose.orientation
     assert same_rotation((q.x, q.y, q.z, q.w), (0.0, 0.0, -math.sqrt(0.5), math.sqrt(0.5))), \
         'facing south (yaw -90 deg in ENU), the latest attitude, though it came before the subscriber'
+    assert len(late) == 1, 'the kept attitude decoded once, when read'
+    ros.topics['~imu/data'].connections = 1
+    datagram(south)
+    [data] = ros.topics['~imu/data'].messages
+    a = data.linear_acceleration
+    assert (a.x, a.y, a.z) == pytest.approx((0.5, -0.25, 9.75)), 'the kept HIGHRES_IMU\'s acceleration, FRD -> FLU'
     link.close()
 
 

@@ -334,7 +334,7 @@ def test_cycles_of_one_wake_up_each_run_at_their_own_time():
         sim.step(0.01, 7.00, out)
         sim.step(0.01, 7.01, out)  # the same wake-up: the clock has not moved
         assert stepped == [7.00, 7.01]
-        attitude_ms = [m.message().time_boot_ms for m in out[sim.link] if m.get_type() == 'ATTITUDE']
+        attitude_ms = [m.time_boot_ms for m in out[sim.link] if m.get_type() == 'ATTITUDE']
         assert attitude_ms == [7000, 7010]
     finally:
         sim.close_links()

@@ -1,16 +1,14 @@
 """The wire layer (offboard_py.wire) and the link's use of it, datagram by datagram.
 
-- encode() must make the frame pymavlink makes, byte for byte, for every message of the
-  dialect, so a client cannot tell the fast path from pymavlink's.
+- encode() and payload() are pymavlink's frame and payload, for every message of the dialect.
 - Each link numbers its frames 0, 1, ... 255, 0 (PX4 and mavros count per channel; a
   receiver measures packet loss from the gaps). Before this, every frame said seq 0.
 - split() frames a datagram as the C library's parser does; crc_ok() checks a frame's CRC.
 - decode() must make the message object pymavlink's decode() makes, for every message of the
-  dialect, whole or trimmed, MAVLink 2 or 1, so a handler cannot tell the fast path either.
+  dialect, whole or trimmed, MAVLink 2 or 1, from the frames split() gives.
 - A link decodes only the types its handlers read, and still counts and checks the rest.
 """
 
-import inspect
 import random
 import struct
 
@@ -59,34 +57,10 @@ def test_encode_is_pymavlinks_frame(msg_id):
         assert wire.encode(msg, seq, 42, 190) == msg.pack(reference), cls.msgname
         # and the message is left as it was: pymavlink can still pack it
         assert msg.pack(reference) == wire.encode(msg, seq, 42, 190)
-
-
-@pytest.mark.parametrize('msg_id', sorted(mavlink.mavlink_map))
-def test_packing_codec_makes_pymavlinks_frame(msg_id):
-    """PackingCodec's xxx_encode() takes pymavlink's arguments, defaults included, and its Packed
-    message frames byte for byte as pymavlink's message; message() gives that message back."""
-    rng = random.Random(msg_id + 1000)
-    cls = mavlink.mavlink_map[msg_id]
-    codec = wire.PackingCodec(mavlink.MAVLink(None, srcSystem=42, srcComponent=190))
-    encoder = getattr(codec, cls.msgname.lower() + '_encode')
-    for seq in (0, 255):
-        sample = sample_message(cls, rng)
-        args = [getattr(sample, '_%s_raw' % name, getattr(sample, name)) for name in cls.fieldnames]
-        packed = encoder(*args)
-        reference = mavlink.MAVLink(None, srcSystem=42, srcComponent=190)
-        reference.seq = seq
-        assert wire.encode(packed, seq, 42, 190) == sample.pack(reference), cls.msgname
-        assert packed.get_type() == cls.msgname and packed.id == msg_id
-        assert packed.message().pack(reference) == sample.pack(reference)
-    # pymavlink's encode method's defaults (extension fields, HEARTBEAT's mavlink_version) are the codec's too
-    reference = mavlink.MAVLink(None, srcSystem=42, srcComponent=190)
-    pymavlink_encoder = getattr(reference, cls.msgname.lower() + '_encode')
-    required = [name for name, p in inspect.signature(pymavlink_encoder).parameters.items()
-                if p.default is inspect.Parameter.empty]
-    if len(required) < len(cls.fieldnames):
-        sample = sample_message(cls, rng)
-        args = [getattr(sample, '_%s_raw' % name, getattr(sample, name)) for name in required]
-        assert wire.encode(encoder(*args), 0, 42, 190) == pymavlink_encoder(*args).pack(reference), cls.msgname
+        # the whole payload: as long as pymavlink's struct for the class, the frame's trimmed one its start
+        body = wire.payload(msg)
+        assert len(body) == wire.payload_size(cls) == cls.unpacker.size, cls.msgname
+        assert body.startswith(msg.pack(reference)[wire.HEADER_V2:-2]) and not body[len(body.rstrip(b'\x00')):].strip(b'\x00')
 
 
 def _raw_frame(msg_id, body, rng, v1=False):
@@ -115,7 +89,7 @@ def test_decode_is_pymavlinks_message(msg_id):
     rng = random.Random(msg_id + 2000)
     cls = mavlink.mavlink_map[msg_id]
     reference = mavlink.MAVLink(None)
-    size = cls.unpacker.size
+    size = wire.payload_size(cls)
     bodies = [wire.payload(sample_message(cls, rng)) for _ in range(3)]
     bodies += [body.rstrip(b'\x00') or body[:1] for body in bodies]
     bodies += [bytes(rng.getrandbits(8) for _ in range(n)) for n in (1, rng.randint(1, size), size, min(255, size + 4))]
@@ -226,6 +200,26 @@ def test_link_decodes_a_type_only_while_a_handler_needs_it(link, monkeypatch):
     needed[0] = False
     link.handle_datagram(frame(ATT, seq=3), ('127.0.0.1', 14580))
     assert len(got) == 2, 'one handler that always reads a type decodes it for all of them'
+
+
+def test_link_gives_kept_frames_undecoded_in_their_turn(link, monkeypatch):
+    """on_raw(): every valid frame of the type, decoded or not, before the handlers of its own message and
+    after those of the messages before it in the datagram; a bad one is not given."""
+    decoded, calls = [], []
+    real_decode = wire.decode
+    monkeypatch.setattr(wire, 'decode', lambda msg_id, data: decoded.append(msg_id) or real_decode(msg_id, data))
+    link.on_raw('ATTITUDE', lambda data: calls.append(('raw', data[4])))
+    link.on('HEARTBEAT', lambda msg: calls.append(('HEARTBEAT', msg.get_seq())))
+    bad = bytearray(frame(ATT, seq=3))
+    bad[-1] ^= 0xFF
+    link.handle_datagram(frame(HB, seq=1) + frame(ATT, seq=2) + bytes(bad), ('127.0.0.1', 14580))
+    assert calls == [('HEARTBEAT', 1), ('raw', 2)] and decoded == [mavlink.MAVLINK_MSG_ID_HEARTBEAT]
+    assert link.stats['received'] == 2 and link.stats['bad_frames'] == 1
+    got = []
+    link.on('ATTITUDE', lambda msg: got.append(msg.get_seq()) or calls.append(('ATTITUDE', msg.get_seq())))
+    link.handle_datagram(frame(ATT, seq=4), ('127.0.0.1', 14580))
+    assert calls[-2:] == [('raw', 4), ('ATTITUDE', 4)], 'kept first, then the handlers of the same message'
+    assert wire.decode_checked(frame(ATT, seq=4)).get_seq() == 4
 
 
 def test_link_counts_bad_frames_and_junk_moves_nothing(link):

@@ -1,12 +1,12 @@
 """The vehicle's latest attitude in ROS frames, shared by the plugins that need it.
 
-The bridge updates it on every ATTITUDE_QUATERNION from the target system, before any
-plugin's handler for that message runs, and the NED/FRD -> ENU/FLU conversion is done at
-most once per message, when something reads it (mavros keeps the same cache in its UAS
-object). It publishes nothing itself.
+The bridge gives it every ATTITUDE_QUATERNION frame from the target system, before any plugin's
+handler for that message runs; the frame is decoded, and the NED/FRD -> ENU/FLU conversion done,
+at most once per message, when something reads it (mavros keeps the same cache in its UAS
+object; PX4 sends 50 a second, most read by nobody). It publishes nothing itself.
 """
 
-from offboard_py import frames
+from offboard_py import frames, wire
 
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
@@ -19,20 +19,21 @@ class Attitude:
     attitude of now), but most are read by nobody."""
 
     def __init__(self):
-        self._att = None
+        self._frame = None
         self._converted = (IDENTITY, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
-    def update(self, att):
-        """Take an ATTITUDE_QUATERNION (q in w, x, y, z order, NED world, FRD body)."""
-        self._att = att
+    def update(self, frame):
+        """Take an ATTITUDE_QUATERNION frame (q in w, x, y, z order, NED world, FRD body), checked by the link."""
+        self._frame = frame
 
     def _values(self):
-        att = self._att
-        if att is not None:
+        frame = self._frame
+        if frame is not None:
+            att = wire.decode_checked(frame)
             orientation = frames.orientation_ned_to_enu(frames.wxyz_to_xyzw(att.q1, att.q2, att.q3, att.q4))
             rates_flu = frames.frd_to_flu(att.rollspeed, att.pitchspeed, att.yawspeed)
             self._converted = (orientation, rates_flu, frames.rotate(orientation, rates_flu))
-            self._att = None
+            self._frame = None
         return self._converted
 
     @property

@@ -23,6 +23,7 @@ import time
 import rospy
 
 from offboard_py import wire
+from offboard_py.dialect import mavlink
 from offboard_py.bridge import filters
 from offboard_py.bridge.attitude import Attitude
 
@@ -32,6 +33,14 @@ MAX_WAIT_S = 0.2     # the receive loop's longest sleep in real time (how soon i
 # How late a periodic task may run (bridge clock) so that it runs in a wake-up the FCU's datagrams
 # cause anyway (PX4 sends hundreds a second, the simulated PX4 50) instead of one of its own.
 TIMER_SLACK_S = 0.02
+# While the FCU streams (PX4: about 400 datagrams a second, one message each), the receive loop reads
+# what has come every DRAIN_S of wall time instead of waking for each datagram: a wake-up costs the
+# process more than the datagram it brings (bench/replay_bench.py). Under mavros's and PX4's TIMESYNC
+# round-trip limit (10 ms), so the answers to the FCU's requests stay usable ...
+DRAIN_S = 0.004
+# ... and for PROMPT_S after the bridge asks for a TIMESYNC it wakes for each datagram again, so the
+# FCU's answer is read as it comes and the round trip measured is the link's.
+PROMPT_S = 0.010
 RETRY_DELAYS_S = (1.0, 2.0, 4.0, 8.0, 16.0, 30.0)  # between tries of a connection-time pull; then every 30 s
 
 class Bridge:
@@ -42,8 +51,8 @@ class Bridge:
         self.target_system = cfg['target_system_id']
         self.target_component = cfg['target_component_id']
         self.link = link
-        # what plugins build they send: pymavlink's encode methods without message objects
-        self.mav = wire.PackingCodec(link.mav)
+        # the codec whose xxx_encode() methods build what plugins send (the link packs and numbers it)
+        self.mav = link.mav
         self.gcs = gcs
         if gcs:
             link.on_datagram = gcs.send_bytes     # FCU -> GCS, raw
@@ -52,6 +61,8 @@ class Bridge:
         self._clock = clock
         self._periodic = []  # [period_s, next_s, callback]
         self._one_shots = []  # (due_s, callback): after_connect
+        self._tasks_added = False  # a task was added: the receive loop works out its next wake-up again
+        self._prompt_until_s = 0.0  # monotonic: until then the loop wakes for each datagram (PROMPT_S)
         self.connection_epoch = 0  # counts connections: a retry loop ends with its own
         self.connected = False
         self._connection_listeners = []
@@ -60,7 +71,7 @@ class Bridge:
         self.commands = None  # the command plugin's COMMAND_ACK waiter, when loaded: expect(cmd)
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         # registered before any plugin's handler, so readers see this message's attitude
-        self.on('ATTITUDE_QUATERNION', self.attitude.update)
+        self.on_raw('ATTITUDE_QUATERNION', self.attitude.update)
         self.plugins = [plugin(self) for plugin in plugins]
         self._running = False
         self._thread = None
@@ -77,6 +88,17 @@ class Bridge:
                 handler(msg)
         self.link.on(msg_type, filtered, needed)
 
+    def on_raw(self, msg_type, hook):
+        """Call hook(frame bytes) for each `msg_type` frame from the target system, decoded or not, before
+        the handlers of the same message: a cache keeps the latest and decodes it when read
+        (wire.decode_checked), as mavros's UAS keeps the latest attitude and IMU data."""
+        target = self.target_system
+
+        def filtered(frame):
+            if (frame[5] if frame[0] == wire.MAGIC_V2 else frame[3]) == target:  # filters.SYSTEM on the header
+                hook(frame)
+        self.link.on_raw(msg_type, filtered)
+
     @staticmethod
     def listened(*publishers):
         """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
@@ -84,6 +106,8 @@ class Bridge:
 
     def send(self, msg):
         """Send to the FCU, in a datagram of its own as mavros does; False while its address is unknown."""
+        if msg.get_msgId() == mavlink.MAVLINK_MSG_ID_TIMESYNC and msg.tc1 == 0:  # a round trip to time: read the answer at once
+            self._prompt_until_s = time.monotonic() + PROMPT_S
         return self.link.send(msg)
 
     # -- ROS ----------------------------------------------------------------------------------
@@ -146,6 +170,7 @@ class Bridge:
         """Call callback(now_s) every period_s from the receive thread; returns the task (for take_early)."""
         task = [period_s, self._clock(), callback]
         self._periodic.append(task)
+        self._tasks_added = True
         return task
 
     def take_early(self, task, now_s):
@@ -188,6 +213,7 @@ class Bridge:
         def start(connected):
             if connected:
                 self._one_shots.append((self._clock() + delay_s, callback))
+                self._tasks_added = True
         self.on_connection(start)
 
     def _run_one_shots(self, now_s):
@@ -249,28 +275,43 @@ class Bridge:
 
     def _loop(self):
         """Wake when a datagram comes or a task is due, not on a fixed tick: each wake-up of the
-        process costs about as much as handling a datagram. Under simulated time the bridge's
-        clock is ROS time, whose seconds are not the wall's, so a wait is at most a short wall
-        slice there."""
+        process costs about as much as handling a datagram. While datagrams keep coming, read them
+        every DRAIN_S instead (PROMPT_S after a TIMESYNC request excepted); once a DRAIN_S passes
+        without one, wait for the next again. Under simulated time the bridge's clock is ROS time,
+        whose seconds are not the wall's, so a wait is at most a short wall slice there."""
         poller = select.poll()
         links = {}
         for link in [self.link] + ([self.gcs] if self.gcs else []):
             links[link.fileno()] = link
             poller.register(link.fileno(), select.POLLIN)
+        all_links = list(links.values())
         longest_wait_s = MAX_WAIT_S if self._clock is time.monotonic else WAIT_SLICE_S
+        due_s = None  # the next wake-up the tasks need (bridge clock), worked out again after they run
+        streaming = False
         while self._running and not self.is_shutdown():
-            due_s = self._next_due_s()
+            if due_s is None or self._tasks_added:
+                self._tasks_added = False
+                due_s = self._next_due_s()
             wait_s = longest_wait_s if due_s is None else min(longest_wait_s, max(0.0, due_s - self._clock()))
             try:
-                events = poller.poll(wait_s * 1000.0)
+                if streaming and time.monotonic() >= self._prompt_until_s:
+                    time.sleep(min(DRAIN_S, wait_s))
+                    ready = all_links
+                else:
+                    ready = [links[fd] for fd, _ in poller.poll(wait_s * 1000.0)]
+                received = 0
+                for link in ready:
+                    received += link.receive()
             except (OSError, ValueError):
                 break  # sockets closed at shutdown
-            for fd, _ in events:
-                links[fd].receive()
+            streaming = received > 0
+            # most wake-ups are a datagram's: the tasks are looked at only once one is due
             now_s = self._clock()
-            self.run_periodic(now_s)
-            if self._one_shots:
-                self._run_one_shots(now_s)
+            if due_s is not None and now_s >= due_s - TIMER_SLACK_S:
+                self.run_periodic(now_s)
+                if self._one_shots:
+                    self._run_one_shots(now_s)
+                due_s = None
 
     def stop(self):
         self._running = False

@@ -1,8 +1,9 @@
 """mavros imu: the IMU in ROS frames (FLU body), frame base_link.
 
 - ~imu/data (sensor_msgs/Imu): orientation and angular velocity from the bridge's attitude
-  cache, linear acceleration from the latest HIGHRES_IMU; on every ATTITUDE_QUATERNION (both
-  always read, as mavros reads them, so the first imu/data a new subscriber gets is now's);
+  cache, linear acceleration from the latest HIGHRES_IMU; on every ATTITUDE_QUATERNION while
+  subscribed (both kept as they come, decoded when read, so the first imu/data a new subscriber
+  gets is now's, as with mavros, which decodes every one);
 - from each HIGHRES_IMU: ~imu/data_raw (Imu without orientation: orientation_covariance[0]
   is -1, as mavros), ~imu/mag (MagneticField, tesla), ~imu/static_pressure (FluidPressure,
   Pa) and ~imu/temperature_imu (Temperature, deg C).
@@ -10,7 +11,7 @@
 
 from sensor_msgs.msg import FluidPressure, Imu as ImuMsg, MagneticField, Temperature
 
-from offboard_py import frames
+from offboard_py import frames, wire
 
 GAUSS_TO_TESLA = 1e-4
 HPA_TO_PA = 100.0
@@ -19,20 +20,35 @@ HPA_TO_PA = 100.0
 class Imu:
     def __init__(self, bridge):
         self.bridge = bridge
-        self.accel_flu = (0.0, 0.0, 0.0)
+        self._accel_flu = (0.0, 0.0, 0.0)
+        self._imu_frame = None  # the latest HIGHRES_IMU, decoded when its acceleration is read
         self.pub = bridge.publisher('~imu/data', ImuMsg)
         self.raw_pub = bridge.publisher('~imu/data_raw', ImuMsg)
         self.mag_pub = bridge.publisher('~imu/mag', MagneticField)
         self.pressure_pub = bridge.publisher('~imu/static_pressure', FluidPressure)
         self.temperature_pub = bridge.publisher('~imu/temperature_imu', Temperature)
         self.raw_listened = bridge.listened(self.raw_pub, self.mag_pub, self.pressure_pub, self.temperature_pub)
-        # always read: imu/data's acceleration must be now's from its subscriber's first message on
-        # (a subscriber such as rospy.wait_for_message takes the first one)
-        bridge.on('HIGHRES_IMU', self._on_highres_imu)
-        bridge.on('ATTITUDE_QUATERNION', self._on_attitude)
+        # every HIGHRES_IMU kept: imu/data's acceleration must be now's from its subscriber's first
+        # message on (a subscriber such as rospy.wait_for_message takes the first one)
+        bridge.on_raw('HIGHRES_IMU', self._keep_imu)
+        bridge.on('HIGHRES_IMU', self._on_highres_imu, needed=self.raw_listened)
+        bridge.on('ATTITUDE_QUATERNION', self._on_attitude, needed=bridge.listened(self.pub))
+
+    def _keep_imu(self, frame):
+        self._imu_frame = frame
+
+    @property
+    def accel_flu(self):
+        """The latest HIGHRES_IMU's acceleration, FLU (m/s^2)."""
+        if self._imu_frame is not None:
+            imu = wire.decode_checked(self._imu_frame)
+            self._accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
+            self._imu_frame = None
+        return self._accel_flu
 
     def _on_highres_imu(self, imu):
-        self.accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
+        self._accel_flu = frames.frd_to_flu(imu.xacc, imu.yacc, imu.zacc)
+        self._imu_frame = None  # this message's: already decoded
         if not self.raw_listened():
             return
         stamp = self.bridge.fcu_stamp_us(imu.time_usec)

@@ -19,7 +19,7 @@ import math
 import select
 import struct
 
-from offboard_py import param_codec, px4_modes, sitl_ports, wire
+from offboard_py import param_codec, px4_modes, sitl_ports
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
 from offboard_py.simclock import SimClock
@@ -71,9 +71,8 @@ class SimulatedPx4:
         # Both links keep the first sender they hear from, as PX4's UDP links do (mavlink_link._lock_partner)
         self.link = MavlinkLink((bind_host, local_port), (bind_host, remote_port), self.system_id, 1,
                                 name='onboard', lock_remote=True, clock=clock, pack_datagrams=pack_datagrams)
-        # what the simulator builds it only sends: pymavlink's encode methods, packed straight into
-        # payloads without message objects (offboard_py.wire.PackingCodec; telemetry is half its CPU)
-        self.mav = wire.PackingCodec(self.link.mav)
+        # what the simulator sends: built by pymavlink's codec, packed and numbered by the link
+        self.mav = self.link.mav
         self.links = [self.link]
         self.gcs_link = None
         if gcs:
