@@ -294,11 +294,10 @@ class Summary:
             seen = set()
             for m in self.messages:
                 if m.dir == direction and m.type == 'HEARTBEAT':
-                    # (no MAV_TYPE: the references' JSONL lost it under the key 'type')
-                    seen.add((m.comp, m.get('autopilot'), m.get('mavlink_version')))
+                    seen.add((m.comp, m.get('type'), m.get('autopilot'), m.get('mavlink_version')))
             if seen:
-                self.put('heartbeat/%s/comp,autopilot,version' % direction,
-                         ' '.join('%s,%s,%s' % s for s in sorted(seen)), 'value')
+                self.put('heartbeat/%s/comp,type,autopilot,version' % direction,
+                         ' '.join('%s,%s,%s,%s' % s for s in sorted(seen)), 'value')
         ros = sorted(set((m.get('base_mode'), m.get('custom_mode'), m.get('system_status')) for m in self.messages
                          if m.dir == 'ros' and m.type == 'HEARTBEAT'))
         if ros:

@@ -63,8 +63,22 @@ def read(path, fcu_port=FCU_PORT):
         raise RecordingError('%s: broken xz data: %s' % (name, err))
 
 
+HEAD = ('t', 'dir', 'sys', 'comp', 'seq', 'id', 'type')
+
+
+def to_record(m, fields=None):
+    """A message as one JSONL record (a dict): its head, then its fields (those named, or all). A field
+    named like a head key (HEARTBEAT's and MISSION_ACK's 'type') is written with a 'field_' prefix."""
+    record = {'t': m.t, 'dir': m.dir, 'sys': m.sys, 'comp': m.comp, 'seq': m.seq, 'id': m.id, 'type': m.type}
+    for name in (m.fields if fields is None else fields):
+        if name in m.fields:
+            record[('field_' + name) if name in HEAD else name] = m.fields[name]
+    return record
+
+
 def read_jsonl(lines, name='<jsonl>'):
-    """Messages from decoded JSONL lines (bytes or str): t, dir, sys, comp, seq, id, type + fields."""
+    """Messages from decoded JSONL lines (bytes or str): t, dir, sys, comp, seq, id, type + fields
+    (to_record's form; a 'field_' prefix is taken off)."""
     out = []
     for number, line in enumerate(lines, 1):
         if isinstance(line, bytes):
@@ -74,8 +88,8 @@ def read_jsonl(lines, name='<jsonl>'):
             continue
         try:
             d = json.loads(line)
-            fields = {k: v for k, v in d.items() if k not in ('t', 'dir', 'sport', 'dport', 'sys', 'comp', 'seq', 'id',
-                                                               'type')}
+            fields = {(k[len('field_'):] if k.startswith('field_') else k): v for k, v in d.items()
+                      if k not in HEAD and k not in ('sport', 'dport')}
             m = Message(float(d['t']), d['dir'], int(d['sys']), int(d['comp']), int(d['seq']), int(d['id']),
                         str(d['type']), fields)
         except (ValueError, KeyError, TypeError) as err:
@@ -141,6 +155,15 @@ def _fields(msg):
     return out
 
 
+def frame_header(frame):
+    """(seq, sys, comp, msg id) from a MAVLink 2 (0xFD) or 1 (0xFE) frame's header."""
+    if frame[:1] == b'\xfd' and len(frame) >= 10:
+        return frame[4], frame[5], frame[6], frame[7] | frame[8] << 8 | frame[9] << 16
+    if frame[:1] == b'\xfe' and len(frame) >= 6:
+        return frame[2], frame[3], frame[4], frame[5]
+    raise RecordingError('not a MAVLink frame: %s' % frame[:10].hex())
+
+
 def read_pcap(f, name='<pcap>', fcu_port=FCU_PORT):
     """Messages from a pcap file object: from fcu_port 'fcu', to it 'ros'; other datagrams are skipped.
     Each direction has its own parser (a frame never spans two senders' datagrams)."""
@@ -164,10 +187,16 @@ def read_pcap(f, name='<pcap>', fcu_port=FCU_PORT):
             kind = msg.get_type()
             if kind == 'BAD_DATA':
                 continue
-            header = msg.get_header()
-            msg_id = int(kind[len('UNKNOWN_'):]) if kind.startswith('UNKNOWN_') else msg.get_msgId()
-            out.append(Message(round(stamp - start, 6), direction, header.srcSystem, header.srcComponent, header.seq,
-                               msg_id, kind, _fields(msg)))
+            if kind.startswith('UNKNOWN_'):
+                # pymavlink gives an unknown message no header: read it from the frame itself
+                sender_seq, sys_id, comp_id, msg_id = frame_header(bytes(msg.get_msgbuf()))
+                fields = {}
+            else:
+                header = msg.get_header()
+                sender_seq, sys_id, comp_id, msg_id = header.seq, header.srcSystem, header.srcComponent, \
+                    msg.get_msgId()
+                fields = _fields(msg)
+            out.append(Message(round(stamp - start, 6), direction, sys_id, comp_id, sender_seq, msg_id, kind, fields))
     return out
 
 
