@@ -222,19 +222,38 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
 
 # -- sys_status --------------------------------------------------------------------------------
 
-def test_heartbeat_connects_publishes_state_and_asks_for_capabilities():
+def test_heartbeat_connects_publishes_state_and_asks_for_capabilities_1_s_later():
+    """As real mavros: COMMAND_LONG 520 1.0 s after PX4's first HEARTBEAT (reference/px4-sitl-measured.md,
+    "Recorded conversations"), once per connection."""
     rig = Rig(sys_status.SysStatus)
     states = rig.published('~state')
     assert rig.ros.topics['~state'].latch and len(states) == 1 and not states[0].connected
+    rig.tick(100.0)
     rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
                            | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED))
     state = states[-1]
     assert (state.connected, state.armed, state.guided, state.mode) == (True, True, True, 'AUTO.LOITER')
     assert state.system_status == mavlink.MAV_STATE_STANDBY
+    rig.tick(100.9)
+    assert rig.fcu.got('COMMAND_LONG') == [], 'not before 1 s'
+    rig.tick(101.0)
+    assert wait_until(lambda: rig.fcu.got('COMMAND_LONG'))
     [request] = rig.fcu.got('COMMAND_LONG')
     assert request.command == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES and request.param1 == 1
     rig.fcu.send(heartbeat())
+    rig.tick(105.0)
+    time.sleep(0.05)
     assert len(rig.fcu.got('COMMAND_LONG')) == 1, 'capabilities are asked for once per connection'
+
+
+def test_our_heartbeat_is_mavros_s_manual_armed_onboard_controller():
+    """Real mavros's HEARTBEAT: ONBOARD_CONTROLLER, autopilot INVALID, base_mode 192 (MAV_MODE_MANUAL_ARMED),
+    custom_mode 0, ACTIVE (reference/conversations/takeoff-mavros-px4)."""
+    rig = Rig(sys_status.SysStatus)
+    rig.tick(100.0)
+    [hb] = rig.fcu.got('HEARTBEAT')
+    assert (hb.type, hb.autopilot, hb.base_mode, hb.custom_mode, hb.system_status) == (
+        mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 192, 0, mavlink.MAV_STATE_ACTIVE)
 
 
 def test_heartbeat_from_another_component_or_system_is_ignored():

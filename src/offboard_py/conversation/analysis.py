@@ -9,7 +9,7 @@ A figure is a value with its kind, which says how two of them are compared (comp
   'value'  a result, a sequence of states, a set of field values: equal or not.
 Keys are paths: 'rate/ros/armed hover/SYSTEM_TIME', 'command/ros/MAV_CMD_COMPONENT_ARM_DISARM/delay',
 'mission/ros/type 1/at', 'param/ros/list/at', 'mode/fcu/sequence', 'timesync/ros/answered',
-'seq/fcu/1.1/gaps per 1000'. The accepted differences of a test name them (fnmatch patterns).
+'seq/fcu/comp 1/gaps per 1000'. The accepted differences of a test name them (fnmatch patterns).
 """
 
 import collections
@@ -285,7 +285,7 @@ class Summary:
                     lost[sender] += (step - 1) % 256
             last[sender] = m.seq
         for sender, n in sorted(count.items()):
-            key = 'seq/%s/%d.%d' % sender
+            key = 'seq/%s/comp %d' % (sender[0], sender[2])  # not the system id: it is the SITL instance's
             self.put(key + '/messages', n, 'count')
             self.put(key + '/gaps per 1000', round(1000.0 * gaps[sender] / n, 2), 'rate', 1000.0 * 2 / n)
 
