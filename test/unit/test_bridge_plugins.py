@@ -175,7 +175,7 @@ class Rig:
 
     def tick(self, now_s):
         self.clock.now_s = now_s
-        self.bridge.run_periodic(now_s)
+        self.bridge.run_due(now_s)
 
 
 def heartbeat(base_mode=mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, custom_mode=AUTO_LOITER):
@@ -245,19 +245,38 @@ def test_tf_static_carries_mavros_ned_and_frd_frames():
 
 # -- sys_status --------------------------------------------------------------------------------
 
-def test_heartbeat_connects_publishes_state_and_asks_for_capabilities():
+def test_heartbeat_connects_publishes_state_and_asks_for_capabilities_1_s_later():
+    """As real mavros: COMMAND_LONG 520 1.0 s after PX4's first HEARTBEAT (reference/px4-sitl-measured.md,
+    "Recorded conversations"), once per connection."""
     rig = Rig(sys_status.SysStatus)
     states = rig.published('~state')
     assert rig.ros.topics['~state'].latch and len(states) == 1 and not states[0].connected
+    rig.tick(100.0)
     rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED
                            | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED))
     state = states[-1]
     assert (state.connected, state.armed, state.guided, state.mode) == (True, True, True, 'AUTO.LOITER')
     assert state.system_status == mavlink.MAV_STATE_STANDBY
+    rig.tick(100.9)
+    assert rig.fcu.got('COMMAND_LONG') == [], 'not before 1 s'
+    rig.tick(101.0)
+    assert wait_until(lambda: rig.fcu.got('COMMAND_LONG'))
     [request] = rig.fcu.got('COMMAND_LONG')
     assert request.command == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES and request.param1 == 1
     rig.fcu.send(heartbeat())
+    rig.tick(105.0)
+    time.sleep(0.05)
     assert len(rig.fcu.got('COMMAND_LONG')) == 1, 'capabilities are asked for once per connection'
+
+
+def test_our_heartbeat_is_mavros_s_manual_armed_onboard_controller():
+    """Real mavros's HEARTBEAT: ONBOARD_CONTROLLER, autopilot INVALID, base_mode 192 (MAV_MODE_MANUAL_ARMED),
+    custom_mode 0, ACTIVE (reference/conversations/takeoff-mavros-px4)."""
+    rig = Rig(sys_status.SysStatus)
+    rig.tick(100.0)
+    [hb] = rig.fcu.got('HEARTBEAT')
+    assert (hb.type, hb.autopilot, hb.base_mode, hb.custom_mode, hb.system_status) == (
+        mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 192, 0, mavlink.MAV_STATE_ACTIVE)
 
 
 def test_heartbeat_from_another_component_or_system_is_ignored():
@@ -452,8 +471,11 @@ class MissionFcu:
             return [self._request(len(self.items))]
         return [BUILD.mission_ack_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, self.result)]
 
-    def _on_request_list(self, _msg):
-        return [BUILD.mission_count_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, len(self.items))]
+    def _on_request_list(self, msg):
+        """The mission's count; an empty geofence and rally list, as PX4 SITL answers on a fresh start."""
+        mission_type = msg.mission_type
+        count = len(self.items) if mission_type == mavlink.MAV_MISSION_TYPE_MISSION else 0
+        return [BUILD.mission_count_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, count, mission_type)]
 
     def _on_request(self, msg):
         item = self.items[msg.seq]
@@ -518,7 +540,7 @@ def test_mission_pull_from_a_silent_fcu_fails_after_the_retries(monkeypatch):
 
 
 def test_mission_pull_after_connection_retries_until_the_fcu_answers(monkeypatch):
-    """A flood (issue 17) can starve the first pulls: the bridge keeps trying, with back-off,
+    """A flood can starve the first pulls: the bridge keeps trying, with back-off,
     while the link is up, warning each time, and the list is there once the FCU answers."""
     monkeypatch.setattr(mission, 'STEP_TIMEOUT_S', 0.02)
     warnings = []
@@ -530,7 +552,9 @@ def test_mission_pull_after_connection_retries_until_the_fcu_answers(monkeypatch
     answer = fcu._on_request_list
     fcu_requests = []
 
-    def deaf_twice(msg):  # the first two pulls (8 requests) get nothing
+    def deaf_twice(msg):  # the first two mission pulls (8 requests) get nothing; fence and rally are answered
+        if msg.mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+            return answer(msg)
         fcu_requests.append(msg)
         return answer(msg) if len(fcu_requests) > 2 * (mission.STEP_RETRIES + 1) else []
     rig.fcu.answers['MISSION_REQUEST_LIST'] = deaf_twice

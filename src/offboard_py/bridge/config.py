@@ -89,6 +89,9 @@ def read_time_config(get, cfg):
         raise ConfigError('parameter ~time/time_ref_source: expected a string, got %r' % (source,))
     cfg['time/time_ref_source'] = source
     cfg['conn/timesync_rate'] = float(_number('conn/timesync_rate', get('conn/timesync_rate', 10.0), 0.0, 100.0))
+    # mavros's default is 0 (none); px4.launch's px4_config.yaml sets 1.0, and the bridge follows px4.launch
+    cfg['conn/system_time_rate'] = float(_number('conn/system_time_rate', get('conn/system_time_rate', 1.0), 0.0,
+                                                 100.0))
     filter_args = {}
     for name, arg, default in TIME_FILTER_PARAMS:
         filter_args[arg] = float(_number(name, get(name, default), 0.0, 1.0))

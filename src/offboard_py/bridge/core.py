@@ -182,6 +182,12 @@ class Bridge:
         task[1] = max(task[1], now_s) + task[0]
         return True
 
+    def run_due(self, now_s):
+        """Run every task due at now_s: the periodic callbacks, then the one-shots after a connection."""
+        self.run_periodic(now_s)
+        if self._one_shots:
+            self._run_one_shots(now_s)
+
     def run_periodic(self, now_s):
         """Run the periodic callbacks that are due at now_s (the receive loop's clock)."""
         for task in self._periodic:
@@ -308,9 +314,7 @@ class Bridge:
             # most wake-ups are a datagram's: the tasks are looked at only once one is due
             now_s = self._clock()
             if due_s is not None and now_s >= due_s - TIMER_SLACK_S:
-                self.run_periodic(now_s)
-                if self._one_shots:
-                    self._run_one_shots(now_s)
+                self.run_due(now_s)
                 due_s = None
 
     def stop(self):

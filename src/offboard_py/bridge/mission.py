@@ -3,7 +3,12 @@
 Transfers use the MAVLink mission protocol with MISSION_ITEM_INT (answering a legacy
 MISSION_REQUEST with MISSION_ITEM), one at a time, each step retried on timeout.
 ~mission/waypoints is latched and republished after every transfer (also when empty)
-and when MISSION_CURRENT moves; the mission is pulled once after the connection.
+and when MISSION_CURRENT moves. 15 s after the connection the geofence, the rally points and
+the mission are pulled, in that order, as mavros 1.21's geofence, rallypoint and waypoint plugins
+do (px4_pluginlists.yaml loads all three; each pulls its list BOOTUP_TIME after the connection:
+reference/px4-sitl-measured.md, "Recorded conversations": MISSION_REQUEST_LIST for mission_type 1, 2
+and 0 at 15.0 s after the connection, within 2 ms). The geofence and rally items are kept but not
+published (mavros's ~geofence and ~rallypoint topics are not offered).
 A transfer runs in the service thread; the receive thread hands it the messages.
 """
 
@@ -23,7 +28,10 @@ GLOBAL_FRAMES = frozenset((mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RE
                            mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT))
 FRAME_LOCAL_SCALE = 1e4            # MISSION_ITEM_INT: local x/y are metres * 1e4
 STEP_TIMEOUT_S, STEP_RETRIES = 1.0, 3
-PULL_AFTER_CONNECT_S = 2.0
+PULL_AFTER_CONNECT_S = 15.0
+# what is pulled after the connection, in mavros's order, with its log prefix and name
+AUTO_PULLS = ((mavlink.MAV_MISSION_TYPE_FENCE, 'GF', 'geofence'), (mavlink.MAV_MISSION_TYPE_RALLY, 'RP', 'rally'),
+              (mavlink.MAV_MISSION_TYPE_MISSION, 'WP', 'mission'))
 WAIT_SLICE_S = 0.05  # wall seconds between checks of a deadline on the bridge's clock
 TRANSFER_MESSAGES = ('MISSION_COUNT', 'MISSION_ITEM_INT', 'MISSION_ITEM', 'MISSION_REQUEST_INT', 'MISSION_REQUEST',
                      'MISSION_ACK')
@@ -54,9 +62,11 @@ class Mission:
     def __init__(self, bridge):
         self.bridge = bridge
         self.waypoints = []
+        self.other_items = {}  # mission_type -> the items of a geofence or rally pull
         self.current_seq = 0
         self.transfer_lock = threading.Lock()
         self.inbox = None  # a Queue while a transfer runs
+        self.inbox_type = mavlink.MAV_MISSION_TYPE_MISSION  # the mission_type of that transfer
         self.waypoints_pub = bridge.publisher('~mission/waypoints', WaypointList, queue_size=2, latch=True)
         self.reached_pub = bridge.publisher('~mission/reached', WaypointReached)
         self.services = [bridge.service('~mission/push', WaypointPush, self._push),
@@ -75,9 +85,9 @@ class Mission:
 
     def _to_transfer(self, msg):
         inbox = self.inbox
-        # fence and rally transfers are not ours
+        # only the messages of the transfer's own mission_type
         mission_type = getattr(msg, 'mission_type', mavlink.MAV_MISSION_TYPE_MISSION)
-        if inbox is not None and mission_type == mavlink.MAV_MISSION_TYPE_MISSION:
+        if inbox is not None and mission_type == self.inbox_type:
             inbox.put(msg)
 
     def _on_current(self, msg):
@@ -97,14 +107,15 @@ class Mission:
         self.reached_pub.publish(out)
 
     def _auto_pull(self):
-        def attempt():
-            try:
-                count = self._transfer(self._do_pull)
-            except TransferError as err:
-                return False, str(err)
-            rospy.loginfo('WP: mission received: %d items', count)
-            return True, None
-        self.bridge.retry_while_connected('WP: mission pull after connection', attempt)
+        for mission_type, prefix, name in AUTO_PULLS:
+            def attempt(mission_type=mission_type, prefix=prefix, name=name):
+                try:
+                    count = self._transfer(self._do_pull, mission_type, mission_type=mission_type)
+                except TransferError as err:
+                    return False, str(err)
+                rospy.loginfo('%s: %s received: %d items', prefix, name, count)
+                return True, None
+            self.bridge.retry_while_connected('%s: %s pull after connection' % (prefix, name), attempt)
 
     def _publish(self):
         msg = WaypointList()
@@ -113,9 +124,11 @@ class Mission:
 
     # -- transfers (service threads) -------------------------------------------------------
 
-    def _transfer(self, work, *args):
+    def _transfer(self, work, *args, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
+        """work(*args) with the transfer lock, handed the messages of that mission_type."""
         if not self.transfer_lock.acquire(blocking=False):
             raise TransferError('another mission transfer is in progress')
+        self.inbox_type = mission_type
         self.inbox = queue.Queue()
         try:
             return work(*args)
@@ -145,21 +158,23 @@ class Mission:
                     return value
         raise TransferError('no answer to %s after %d tries' % (what, STEP_RETRIES + 1))
 
-    def _do_pull(self):
+    def _do_pull(self, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
         b = self.bridge
         target = (b.target_system, b.target_component)
         count = self._wait(lambda m: m.count if m.get_type() == 'MISSION_COUNT' else None,
-                           lambda: b.send(b.mav.mission_request_list_encode(*target, mavlink.MAV_MISSION_TYPE_MISSION)),
+                           lambda: b.send(b.mav.mission_request_list_encode(*target, mission_type)),
                            'MISSION_REQUEST_LIST')
         items = []
         for seq in range(count):
             items.append(self._wait(
                 lambda m, seq=seq: m if m.get_type() in ('MISSION_ITEM_INT', 'MISSION_ITEM') and m.seq == seq
                 else None,
-                lambda seq=seq: b.send(b.mav.mission_request_int_encode(*target, seq,
-                                                                         mavlink.MAV_MISSION_TYPE_MISSION)),
+                lambda seq=seq: b.send(b.mav.mission_request_int_encode(*target, seq, mission_type)),
                 'MISSION_REQUEST_INT %d' % seq))
-        b.send(b.mav.mission_ack_encode(*target, mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_TYPE_MISSION))
+        b.send(b.mav.mission_ack_encode(*target, mavlink.MAV_MISSION_ACCEPTED, mission_type))
+        if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+            self.other_items[mission_type] = items
+            return count
         self.waypoints = [waypoint_from_item(item) for item in items]
         self.current_seq = next((i for i, item in enumerate(items) if item.current), self.current_seq)
         self._publish()

@@ -5,8 +5,11 @@
   string, system_status). On expiry, one "disconnected" State. One at start too.
 - ~set_mode upper-cases custom_mode and looks it up (a number is taken as is); unknown:
   mode_sent=false. Known: one SET_MODE is sent, no acknowledgement is awaited.
-- Our own HEARTBEAT (ONBOARD_CONTROLLER, autopilot INVALID) at conn/heartbeat_rate.
-- On connection, AUTOPILOT_VERSION is asked for (as mavros does).
+- Our own HEARTBEAT at conn/heartbeat_rate, as mavros's: ONBOARD_CONTROLLER, autopilot INVALID,
+  base_mode MAV_MODE_MANUAL_ARMED (192), system_status ACTIVE (reference/px4-sitl-measured.md,
+  "Recorded conversations": real mavros's HEARTBEAT carries base_mode 192).
+- AUTOPILOT_VERSION is asked for 1 s after the connection, as mavros's version timer does
+  (COMMAND_LONG 520 recorded 1.0 s after PX4's first HEARTBEAT).
 """
 
 import collections
@@ -32,6 +35,7 @@ ESTIMATOR_FLAGS = (('attitude_status_flag', mavlink.ESTIMATOR_ATTITUDE),
                    ('pred_pos_horiz_abs_status_flag', mavlink.ESTIMATOR_PRED_POS_HORIZ_ABS),
                    ('gps_glitch_status_flag', mavlink.ESTIMATOR_GPS_GLITCH),
                    ('accel_error_status_flag', mavlink.ESTIMATOR_ACCEL_ERROR))
+VERSION_REQUEST_AFTER_CONNECT_S = 1.0  # mavros's autopilot_version_timer period, started on connection
 
 
 def custom_mode_from_string(text):
@@ -67,6 +71,7 @@ class SysStatus:
         if rate > 0:
             bridge.every(1.0 / rate, self._send_heartbeat)
         bridge.every(0.1, self._check_timeout)
+        bridge.after_connect(VERSION_REQUEST_AFTER_CONNECT_S, self._request_version)
         self._publish_disconnected()
 
     def armed(self):
@@ -94,8 +99,6 @@ class SysStatus:
         msg.system_status = hb.system_status
         if not b.connected:
             rospy.loginfo('CON: Got HEARTBEAT, connected. FCU: PX4 Autopilot')
-            b.send(b.mav.command_long_encode(b.target_system, b.target_component,
-                                             mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0, 1, 0, 0, 0, 0, 0, 0))
         b.set_connected(True)
         self.state_pub.publish(msg)
 
@@ -142,10 +145,16 @@ class SysStatus:
             setattr(msg, field, bool(status.flags & flag))
         self.estimator_pub.publish(msg)
 
+    def _request_version(self):
+        b = self.bridge
+        if b.connected:
+            b.send(b.mav.command_long_encode(b.target_system, b.target_component,
+                                             mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0, 1, 0, 0, 0, 0, 0, 0))
+
     def _send_heartbeat(self, _now_s):
         b = self.bridge
-        b.send(b.mav.heartbeat_encode(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
-                                      mavlink.MAV_STATE_ACTIVE))
+        b.send(b.mav.heartbeat_encode(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID,
+                                      mavlink.MAV_MODE_MANUAL_ARMED, 0, mavlink.MAV_STATE_ACTIVE))
 
     def _set_mode(self, req):
         b = self.bridge

@@ -18,6 +18,9 @@ As mavros's sys_time plugin does it (timesync mode MAVLINK, the default):
   synchronise_stamp(). PASSTHROUGH stamps with the FCU's time as it is.
 - SYSTEM_TIME with a plausible Unix time is published on ~time_reference
   (sensor_msgs/TimeReference, source time/time_ref_source).
+- SYSTEM_TIME goes to the FCU every 1/conn/system_time_rate s (px4_config.yaml: 1.0): time_unix_usec
+  the ROS time, time_boot_ms 0, as mavros's sys_time timer sends it (reference/px4-sitl-measured.md,
+  "Recorded conversations": real mavros sends SYSTEM_TIME at 1.0 a second, time_boot_ms 0).
 """
 
 import logging
@@ -111,6 +114,9 @@ class SysTime:
         self.request_task = None
         if self.mode == 'MAVLINK' and rate > 0.0:
             self.request_task = bridge.every(1.0 / rate, self._request)
+        system_time_rate = cfg['conn/system_time_rate']
+        if system_time_rate > 0.0:
+            bridge.every(1.0 / system_time_rate, self._send_system_time)
 
     # -- the offset -----------------------------------------------------------------------
 
@@ -126,6 +132,10 @@ class SysTime:
     def _request(self, _now_s):
         if self.bridge.connected:
             self.bridge.send(self.bridge.mav.timesync_encode(0, self.bridge.now_ns()))
+
+    def _send_system_time(self, _now_s):
+        if self.bridge.connected:
+            self.bridge.send(self.bridge.mav.system_time_encode(self.bridge.now_ns() // 1000, 0))
 
     def _on_timesync(self, msg):
         now_ns = self.bridge.now_ns()

@@ -8,7 +8,11 @@ With --control-port, a test acts on it when it wants, by a datagram to that port
 (or "error: ..."):
   "cut SECONDS [both|to_fcu|to_bridge]"     cut one or both directions from now on;
   "drop P SECONDS [both|to_fcu|to_bridge]"  a burst of random loss: drop each datagram with
-                                            probability P (0..1) from now on, on top of --drop.
+                                            probability P (0..1) from now on, on top of --drop;
+  "flush"                                   write out what --record holds so far.
+With --record FILE, every datagram that arrives (before any loss) is written to FILE as a pcap
+stamped on the simulated clock (offboard_py.conversation.recording): the conversation of the link,
+as reference/conversations/ recorded real mavros and real PX4.
 Runs as a roslaunch node too (name:=value arguments are ignored), through test/rostest/lossy_relay_node.py.
 Loopback only.
 """
@@ -22,6 +26,7 @@ import select
 import socket
 import sys
 
+from offboard_py.conversation.recording import PcapWriter
 from offboard_py.simclock import SimClock, SpeedError
 
 
@@ -39,6 +44,7 @@ def parse_args(argv):
     p.add_argument('--seed', type=int, default=1)
     p.add_argument('--speed', default='1', metavar='K',
                    help='simulated time at K x real time (as sim_px4 --speed): cuts and delays are in its seconds')
+    p.add_argument('--record', metavar='FILE', help='write every datagram to FILE (pcap, simulated-clock stamps)')
     args = p.parse_args([a for a in argv if ':=' not in a])
     for name in ('drop', 'duplicate'):
         if not 0.0 <= getattr(args, name) <= 1.0:
@@ -98,6 +104,13 @@ def main(argv=None):
         print('lossy_relay: %s' % err, file=sys.stderr)
         return 2
     rng = random.Random(args.seed)
+    recorder = None
+    if args.record:
+        try:
+            recorder = PcapWriter(args.record)
+        except OSError as err:
+            print('lossy_relay: --record %s: %s' % (args.record, err), file=sys.stderr)
+            return 2
     sides = {}
     for name, port in (('fcu', args.fcu_port), ('bridge', args.bridge_port)):
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -123,20 +136,25 @@ def main(argv=None):
             now = clock.now()
             if control in readable:
                 text, addr = control.recvfrom(1000)
-                try:
-                    command = parse_control(text.decode('ascii', 'replace'))
-                except ValueError as err:
-                    control.sendto(b'error: %s' % str(err).encode(), addr)
+                if text.strip() == b'flush':
+                    if recorder is not None:
+                        recorder.flush()
+                    control.sendto(b'ok' if recorder is not None else b'error: no --record', addr)
                 else:
-                    for side in command.receiving:
-                        if command.action == 'cut':
-                            cut_until[side] = now + command.seconds
-                        else:
-                            burst[side] = (now + command.seconds, command.drop)
-                    print('lossy_relay: %s %s for %.1f s%s' % (
-                        command.action, '+'.join(command.receiving), command.seconds,
-                        '' if command.action == 'cut' else ' (loss %.0f %%)' % (100 * command.drop)), flush=True)
-                    control.sendto(b'ok', addr)
+                    try:
+                        command = parse_control(text.decode('ascii', 'replace'))
+                    except ValueError as err:
+                        control.sendto(b'error: %s' % str(err).encode(), addr)
+                    else:
+                        for side in command.receiving:
+                            if command.action == 'cut':
+                                cut_until[side] = now + command.seconds
+                            else:
+                                burst[side] = (now + command.seconds, command.drop)
+                        print('lossy_relay: %s %s for %.1f s%s' % (
+                            command.action, '+'.join(command.receiving), command.seconds,
+                            '' if command.action == 'cut' else ' (loss %.0f %%)' % (100 * command.drop)), flush=True)
+                        control.sendto(b'ok', addr)
             for name, sock in sides.items():
                 if sock not in readable:
                     continue
@@ -146,6 +164,8 @@ def main(argv=None):
                     except (BlockingIOError, ConnectionRefusedError):
                         break
                     peers[name] = addr
+                    if recorder is not None:
+                        recorder.write(clock.now(), name == 'fcu', data)
                     elapsed = now - start
                     if now < cut_until[name] or any(s <= elapsed < s + d for s, d in args.cuts):
                         stats['cut'] += 1
@@ -172,5 +192,8 @@ def main(argv=None):
                         pass
     except KeyboardInterrupt:
         print('lossy_relay: %s' % stats)
+    finally:
+        if recorder is not None:
+            recorder.close()
     return 0
 
