@@ -4,6 +4,6 @@ from catkin_pkg.python_setup import generate_distutils_setup
 
 setup(**generate_distutils_setup(
     packages=['offboard_py', 'offboard_py.dialects', 'offboard_py.sim', 'offboard_py.bridge', 'offboard_py.testing',
-              'offboard_py.conversation'],
+              'offboard_py.conversation', 'offboard_py.tools'],
     package_dir={'': 'src'},
     package_data={'offboard_py.sim': ['px4_params.tsv'], 'offboard_py.dialects': ['px4_development.xml']}))

@@ -25,9 +25,9 @@ from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import State
 
 from offboard_py.master import MasterTimeout, wait_for_master
-from offboard_py.phases import PhaseWatcher
-from offboard_py.simclock import SimClock, SpeedError, parse_speed
-from offboard_py.streamstats import latencies_ms, percentile, stream_quality
+from offboard_py.tools.hover_phases import PhaseWatcher
+from offboard_py.simtime import SimClock, SpeedError, parse_speed
+from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
 SCALE_TARGET = 32  # vehicles on the development machine (2 cores)
@@ -35,7 +35,7 @@ CLK_TCK = os.sysconf('SC_CLK_TCK')
 
 
 class Watch:
-    """The phases of one vehicle (offboard_py.phases), and optionally its setpoint header stamps.
+    """The phases of one vehicle (offboard_py.tools.hover_phases), and optionally its setpoint header stamps.
 
     The pose is watched only until the vehicle hovers (`stop_watching_pose()`): a subscriber makes the
     bridge build, serialise and send local_position/pose at 30 Hz, and with 32 vehicles this process

@@ -9,7 +9,7 @@ over and over): random bytes, the vehicle's lies with bad CRCs or cut short, the
 systems, another component's HEARTBEAT, bad enums and NaN. Reported per rate: the setpoint stream's
 inter-arrival p50/p99/max at the simulated PX4 over --duration s of hover, and whether the bridge's
 connection-time pulls (parameters, mission) completed, with the time from connection and the
-number of tries. The bar (issue 17): p99 <= 55 ms and both pulls complete within --pull-timeout s
+number of tries. The bar: p99 <= 55 ms and both pulls complete within --pull-timeout s
 of the connection. Run it through `./run bench --junk` (or with the workspace sourced).
 """
 

@@ -21,7 +21,6 @@ import sys
 import tempfile
 import time
 
-import rosgraph
 import roslib.message
 import rospy
 from geometry_msgs.msg import PoseStamped
@@ -30,7 +29,7 @@ from mavros_msgs.msg import State
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import benchmark  # noqa: E402  (bench/ is not a package)
-from offboard_py.streamstats import latencies_ms, percentile  # noqa: E402
+from offboard_py.tools.streamstats import latencies_ms, percentile  # noqa: E402
 
 MAVROS_CPU_PCT = (2.08, 2.33)  # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts"
 CPU_TARGET_PCT = 2.0

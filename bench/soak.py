@@ -4,7 +4,7 @@ faults is done to it, and every fault must be recovered from and no process may 
 
 Starts launch/soak.launch (simulated PX4 -> lossy relay -> bridge, offb_node; the bridge and the
 simulator respawned) on a ROS master of its own, waits for hover, then does each fault of the
-schedule (offboard_py.soak.make_schedule, printed at the start): link cuts both ways shorter and
+schedule (offboard_py.tools.soak_rules.make_schedule, printed at the start): link cuts both ways shorter and
 longer than conn/timeout and bursts of 10-30 % loss (through the relay's control port), the bridge
 and the simulator killed with SIGKILL (roslaunch respawns them), junk floods at the bridge's and
 the simulator's ports. Each fault is timed until the vehicle is back in OFFBOARD, armed, within
@@ -30,16 +30,17 @@ import time
 
 from pymavlink.dialects.v10 import common as mavlink1
 
-from offboard_py import px4_modes, soak
-from offboard_py.demo import launch_failure
+from offboard_py import px4_modes
+from offboard_py.tools import soak_rules as soak
+from offboard_py.tools.demo import launch_failure
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC
 from offboard_py.dialect import mavlink as mavlink2
 from offboard_py.master import MasterTimeout, wait_for_master
-from offboard_py.simclock import SimClock, SpeedError, parse_speed
+from offboard_py.simtime import SimClock, SpeedError, parse_speed
 from offboard_py.testing import mavlink_fuzz, ports
-from offboard_py.testing.typemask import POSITION_AND_YAW
+from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
-DEFAULT_SEED = 17  # issue 17
+DEFAULT_SEED = 17
 DEFAULT_INSTANCE = 38  # ports.py: 38 and 39 are for runs by hand
 CONN_TIMEOUT_S = 4.0  # the bridge's conn/timeout in soak.launch, as link_cut.test
 MIN_MINUTES = (soak.FIRST_FAULT_S + soak.TAIL_S) / 60.0

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The takeoff demo (launch, live status, plot); the code is in offboard_py.demo."""
+"""The takeoff demo (launch, live status, plot); the code is in offboard_py.tools.demo."""
 import sys
-from offboard_py.demo import main
+from offboard_py.tools.demo import main
 sys.exit(main())

@@ -1,4 +1,4 @@
-"""sim_clock: publishes /clock for a run in simulated time (offboard_py.simclock).
+"""sim_clock: publishes /clock for a run in simulated time (offboard_py.simtime).
 
 The simulated PX4s step on `speed` x the host's monotonic clock; this node publishes the
 same formula on /clock, so every ROS node with /use_sim_time (rospy timers, rospy.Rate,
@@ -23,7 +23,7 @@ import rospy
 from rosgraph_msgs.msg import Clock
 
 from offboard_py.master import await_master_from_argv
-from offboard_py.simclock import SimClock, SpeedError, parse_speed
+from offboard_py.simtime import SimClock, SpeedError, parse_speed
 
 NODE_NAME = 'sim_clock'
 DEFAULT_PERIOD_S = 0.01

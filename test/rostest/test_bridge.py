@@ -22,7 +22,7 @@ from offboard_py.dialect import mavlink
 from offboard_py.testing.mavlink_listener import MavlinkListener
 from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, yaw_of
 from offboard_py.bridge.mavlink_passthrough import frame_to_msg
-from offboard_py.testing.typemask import IGNORE_ACCELERATION, IGNORE_POSITION, POSITION_AND_YAW, VELOCITY_ONLY
+from offboard_py.testing.mavros_typemasks import IGNORE_ACCELERATION, IGNORE_POSITION, POSITION_AND_YAW, VELOCITY_ONLY
 
 PKG = 'offboard_py'
 VELOCITY_YAW_RATE = IGNORE_POSITION | IGNORE_ACCELERATION | mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE

@@ -10,13 +10,7 @@ clock.
 
 import os
 
-
-from offboard_py import px4_modes  # noqa: F401  (the tests import it from here)
-from offboard_py.testing.pytest_plugin import pytest_runtest_makereport, sim_px4, start_sim  # noqa: F401
-from offboard_py.testing.sim_client import (  # noqa: F401  (the tests import them from here)
-    ACCEPTED, DENIED, FAILED, TEMPORARILY_REJECTED, UNSUPPORTED, Client, SimProcess)
-
-REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
+from offboard_py.testing.pytest_plugin import pytest_runtest_makereport, sim_px4, start_sim  # noqa: F401 (fixtures)
 
 
 def pytest_collection_modifyitems(config, items):

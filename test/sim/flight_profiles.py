@@ -1,4 +1,4 @@
-"""The flight profiles of shared/reference/px4-sitl-measured.md, flown offline against the simulator's
+"""The flight profiles of reference/px4-sitl-measured.md, flown offline against the simulator's
 flight stack (sim.flight.Flight) on a simulated clock, faster than real time, and the figures
 measured from them the way they were measured on PX4 SITL.
 
@@ -14,8 +14,8 @@ from offboard_py.sim import offboard_input
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.mission import Item
-from offboard_py.sim.params import ParamStore
-from offboard_py.testing.typemask import POSITION_AND_YAW
+from offboard_py.sim.param_store import ParamStore
+from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
 M = mavlink
 NAN = float('nan')

@@ -16,7 +16,7 @@ import os
 import socket
 import time
 
-from conftest import ACCEPTED, DENIED, FAILED, UNSUPPORTED, Client
+from offboard_py.testing.sim_client import ACCEPTED, DENIED, FAILED, UNSUPPORTED, Client
 
 from offboard_py.dialect import FAILURE_TYPE_OFF, FAILURE_TYPE_OK, FAILURE_UNIT_SENSOR_GYRO, MAV_CMD_INJECT_FAILURE
 from offboard_py.dialect import mavlink

@@ -1,5 +1,5 @@
-"""The simulated multicopter flies like PX4 SITL (issue 13): the recorded profiles of
-shared/reference/px4-sitl-measured.md flown offline against the simulator's flight stack
+"""The simulated multicopter flies like PX4 SITL: the recorded profiles of
+reference/px4-sitl-measured.md flown offline against the simulator's flight stack
 (flight_profiles: the Flight on a simulated clock, no sockets, a few seconds for all of them),
 their figures held within 10 % of PX4's (px4_flight_reference.json: PX4's numbers and traces,
 copied from the reference files), the parameters driving the flight as on PX4, and runs that

@@ -13,7 +13,7 @@ import struct
 
 from offboard_py import param_codec
 from offboard_py.dialect import mavlink
-from offboard_py.sim.params import DEFINITIONS
+from offboard_py.sim.param_store import DEFINITIONS
 
 FAST = ('--ready-delay', '1')
 INT32, REAL32 = mavlink.MAV_PARAM_TYPE_INT32, mavlink.MAV_PARAM_TYPE_REAL32

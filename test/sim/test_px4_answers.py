@@ -6,7 +6,7 @@ SYS_STATUS say around a disarm. Seconds are simulated ones (the client's clock, 
 
 import os
 
-from conftest import ACCEPTED, DENIED, TEMPORARILY_REJECTED
+from offboard_py.testing.sim_client import ACCEPTED, DENIED, TEMPORARILY_REJECTED
 
 from offboard_py.dialect import mavlink
 

@@ -10,7 +10,7 @@ import time
 from pymavlink.dialects.v10 import common as mavlink1
 from pymavlink.dialects.v20 import development as mavlink2
 
-from conftest import ACCEPTED
+from offboard_py.testing.sim_client import ACCEPTED
 
 from offboard_py.dialect import mavlink
 

@@ -1,6 +1,6 @@
 """The simulated PX4 against a plain pymavlink client over UDP on 127.0.0.1 (no ROS).
 
-Every expectation is PX4's behaviour (../shared/reference/px4-behaviour.md), not ours.
+Every expectation is PX4's behaviour (reference/px4-behaviour.md), not ours.
 Seconds are simulated ones, on the client's clock (conftest).
 """
 
@@ -9,12 +9,14 @@ import os
 import socket
 import time
 
-from conftest import ACCEPTED, DENIED, FAILED, REPO, TEMPORARILY_REJECTED, UNSUPPORTED, px4_modes
-
+from offboard_py import px4_modes
 from offboard_py.dialect import (FAILURE_TYPE_OFF, FAILURE_TYPE_OK, FAILURE_UNIT_SENSOR_GYRO, MAV_CMD_INJECT_FAILURE,
                                  mavlink)
 from offboard_py.testing import ports
-from offboard_py.testing.typemask import IGNORE_ACCELERATION, IGNORE_ALL_VECTORS, POSITION_AND_YAW
+from offboard_py.testing.mavros_typemasks import IGNORE_ACCELERATION, IGNORE_ALL_VECTORS, POSITION_AND_YAW
+from offboard_py.testing.sim_client import ACCEPTED, DENIED, FAILED, TEMPORARILY_REJECTED, UNSUPPORTED
+
+REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
 
 FAST = ('--ready-delay', '1')
 HOLD_FLAGS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_AUTO_ENABLED

@@ -1,6 +1,6 @@
 """The bridge's sys_time plugin: TIMESYNC both ways, mavros's offset filter, FCU-stamped topics.
 
-Offline, on the fake FCU link of test_bridge_plugins. Rules from mavros's sys_time: answer the
+Offline, on the fake FCU link of bridge_rig. Rules from mavros's sys_time: answer the
 FCU's requests with ROS time; observe the offset from answers to ours (round trip under
 time/max_rtt_sample); stamp FCU-timed data with FCU time + offset once the filter has
 converged (time/convergence_window samples), with ROS time now before that.
@@ -13,7 +13,7 @@ import rospy
 from offboard_py.bridge import local_position, sys_time
 from offboard_py.bridge.sys_time import TimesyncFilter
 from offboard_py.dialect import mavlink
-from test_bridge_plugins import BUILD, Rig
+from bridge_rig import BUILD, Rig
 
 MS = 1000000
 

@@ -10,15 +10,9 @@ from offboard_py import wire
 from offboard_py.dialect import mavlink
 from offboard_py.mavlink_link import LOCK_GRACE_S, MavlinkLink
 
+from manual_clock import ManualClock
+
 BRIDGE, FLOODER, GCS = ('127.0.0.1', 14540), ('127.0.0.1', 40001), ('127.0.0.1', 40002)
-
-
-class FakeClock:
-    def __init__(self):
-        self.now_s = 100.0
-
-    def __call__(self):
-        return self.now_s
 
 
 def heartbeat(system_id=255):
@@ -28,7 +22,7 @@ def heartbeat(system_id=255):
 
 def sim_link(remote=('127.0.0.1', 14540), clock=None):
     return MavlinkLink(('127.0.0.1', 0), remote, system_id=1, component_id=1, lock_remote=True,
-                       clock=clock or FakeClock())
+                       clock=clock or ManualClock())
 
 
 def test_first_datagram_locks_even_junk_and_nothing_moves_it():
@@ -57,7 +51,7 @@ def test_a_flood_from_another_port_does_not_divert_the_partner():
 
 
 def test_default_partner_elsewhere_waits_three_seconds():
-    clock = FakeClock()
+    clock = ManualClock()
     link = sim_link(remote=('10.0.0.9', 14540), clock=clock)
     try:
         heard = []

@@ -4,16 +4,7 @@ import pytest
 
 from offboard_py.master import MasterTimeout, master_timeout_from_argv, wait_for_master
 
-
-class FakeClock:
-    def __init__(self):
-        self.now = 100.0
-
-    def __call__(self):
-        return self.now
-
-    def sleep(self, seconds):
-        self.now += seconds
+from manual_clock import ManualClock
 
 
 def test_online_master_says_nothing():
@@ -23,9 +14,9 @@ def test_online_master_says_nothing():
 
 
 def test_waits_reminds_and_reports_the_master():
-    clock, said = FakeClock(), []
-    online_at = clock.now + 25.0
-    wait_for_master('offb_node_py', is_online=lambda: clock.now >= online_at, say=said.append, clock=clock,
+    clock, said = ManualClock(), []
+    online_at = clock.now_s + 25.0
+    wait_for_master('offb_node_py', is_online=lambda: clock.now_s >= online_at, say=said.append, clock=clock,
                     sleep=clock.sleep)
     assert said[0].startswith('offb_node_py: no ROS master at ') and 'is roscore running?' in said[0]
     assert sum('still waiting' in line for line in said) == 2  # at 10 s and 20 s
@@ -33,11 +24,11 @@ def test_waits_reminds_and_reports_the_master():
 
 
 def test_bounded_wait_raises_with_the_uri():
-    clock = FakeClock()
+    clock = ManualClock()
     with pytest.raises(MasterTimeout) as err:
         wait_for_master('mavros', 3.0, is_online=lambda: False, say=lambda _: None, clock=clock, sleep=clock.sleep)
     assert 'no ROS master at' in str(err.value) and 'after 3 s' in str(err.value)
-    assert 3.0 <= clock.now - 100.0 <= 3.5
+    assert 3.0 <= clock.now_s - 100.0 <= 3.5
 
 
 @pytest.mark.parametrize('argv, expected', [([], 0.0), (['_master_timeout:=30'], 30.0), (['x', '_rate:=20'], 0.0)])

@@ -12,8 +12,8 @@ import pytest
 
 from offboard_py import param_codec
 from offboard_py.dialect import mavlink
-from offboard_py.sim import params as sim_params
-from offboard_py.sim.params import DEFINITIONS, ParamRejected, ParamStore
+from offboard_py.sim import param_store as sim_params
+from offboard_py.sim.param_store import DEFINITIONS, ParamRejected, ParamStore
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 REFERENCE = os.path.join(REPO, 'reference', 'px4-sitl-params-indexed.tsv')

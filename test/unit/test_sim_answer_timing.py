@@ -9,27 +9,21 @@ import pytest
 from offboard_py.dialect import mavlink
 from offboard_py.sim.autopilot import SimulatedPx4
 
+from manual_clock import ManualClock
+
 RECORDED_ACK_AFTER_S = (0.001, 0.008)
-
-
-class ManualClock(object):
-    def __init__(self):
-        self.now = 1000.0
-
-    def __call__(self):
-        return self.now
 
 
 @pytest.fixture
 def autopilot():
-    clock = ManualClock()
+    clock = ManualClock(1000.0)
     ap = SimulatedPx4(bind_host='127.0.0.1', local_port=0, remote_port=9, gcs=False, ready_delay_s=0.0, clock=clock)
     sent = []
     codec = mavlink.MAVLink(None, srcSystem=ap.system_id, srcComponent=1)
 
     def send(msg):  # the frame the link would put in a datagram, decoded back
         decoded = codec.decode(bytearray(msg.pack(codec)))
-        sent.append((clock.now, decoded.get_type(), decoded))
+        sent.append((clock.now_s, decoded.get_type(), decoded))
     ap.link.send = send
     yield ap, clock, sent
     ap.close_links()
@@ -45,13 +39,13 @@ def command_long(ap, command, *params):
 
 def run_until(ap, clock, seconds, dt=0.0005):
     for _ in range(int(seconds / dt)):
-        clock.now += dt
+        clock.now_s += dt
         ap._send_deferred()
 
 
 def test_protocol_version_at_once_and_its_ack_about_4_ms_later(autopilot):
     ap, clock, sent = autopilot
-    t0 = clock.now
+    t0 = clock.now_s
     command_long(ap, mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION, 1)
     run_until(ap, clock, 0.02)
     got = [(t - t0, kind) for t, kind, _ in sent if kind in ('PROTOCOL_VERSION', 'COMMAND_ACK')]

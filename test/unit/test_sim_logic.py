@@ -10,8 +10,8 @@ from offboard_py.sim import events as ev
 from offboard_py.sim import offboard_input
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
-from offboard_py.sim.params import ParamRejected, ParamStore
-from offboard_py.testing.typemask import IGNORE_ALL_VECTORS, IGNORE_VELOCITY, POSITION_AND_YAW, VELOCITY_ONLY
+from offboard_py.sim.param_store import ParamRejected, ParamStore
+from offboard_py.testing.mavros_typemasks import IGNORE_ALL_VECTORS, IGNORE_VELOCITY, POSITION_AND_YAW, VELOCITY_ONLY
 
 NAN = float('nan')
 M = mavlink
@@ -227,7 +227,7 @@ def test_force_disarm_magic_in_the_air():
     assert ARM_DISARM_FORCE_MAGIC == 21196
 
 
-# -- PX4's flight model (issue 13): the pieces the flight fit (test/sim/test_flight_fit.py) rests on ---------
+# -- PX4's flight model: the pieces the flight fit (test/sim/test_flight_fit.py) rests on ---------
 
 def test_land_speeds_are_px4s():
     from offboard_py.sim.navigator import land_speed

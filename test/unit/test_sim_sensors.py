@@ -18,8 +18,8 @@ from offboard_py.sim import offboard_input, telemetry
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.main import parser
-from offboard_py.sim.params import ParamRejected, ParamStore
-from offboard_py.testing.typemask import POSITION_AND_YAW
+from offboard_py.sim.param_store import ParamRejected, ParamStore
+from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
 M = mavlink
 FRAME = LocalFrame(47.397742, 8.545594, 488.0)

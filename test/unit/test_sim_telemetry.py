@@ -11,8 +11,8 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input, telemetry
 from offboard_py.sim.flight import HOVER_THRUST, Battery, Flight
 from offboard_py.sim.geo import LocalFrame
-from offboard_py.sim.params import ParamStore
-from offboard_py.testing.typemask import POSITION_AND_YAW
+from offboard_py.sim.param_store import ParamStore
+from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
 M = mavlink
 ACCEPTED = M.MAV_RESULT_ACCEPTED
@@ -360,7 +360,7 @@ def test_rtl_time_estimate_is_px4s():
     assert rtl_time_estimate(p, (0.0, 0.0, -5.0), home, False, ('land', -30.0)) == pytest.approx(5 / 1.5)
     assert rtl_time_estimate(p, (50.0, 0.0, -30.0), home, False, ('return', -30.0)) == pytest.approx(10 + 20 / 1.5 + 10 / 1.5)
     # PX4's ranges for what the estimate reads
-    from offboard_py.sim.params import ParamRejected
+    from offboard_py.sim.param_store import ParamRejected
     for name, value in (('RTL_TIME_FACTOR', 2.5), ('RTL_TIME_MARGIN', 301), ('RTL_LAND_DELAY', -2.0)):
         with pytest.raises(ParamRejected):
             p.set(name, value)

@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from offboard_py import soak
+from offboard_py.tools import soak_rules as soak
 
 CONN_TIMEOUT_S = 4.0
 BENCH_SOAK = os.path.join(os.path.dirname(__file__), '..', '..', 'bench', 'soak.py')

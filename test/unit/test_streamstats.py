@@ -2,7 +2,7 @@
 
 import pytest
 
-from offboard_py.streamstats import latencies_ms, percentile, stream_quality
+from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
 
 MS = 1000000
 

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from offboard_py.phases import PhaseWatcher
+from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.testing import ports
 
 

@@ -61,7 +61,7 @@ def open_links(cfg):
     def open_link(url, name, peer=None):
         return MavlinkLink(url.bind, url.remote, cfg['system_id'], cfg['component_id'],
                            learn_remote=not url.permanent, broadcast=url.broadcast, name=name, peer=peer)
-    # the FCU link follows only the autopilot itself: a flood from another port cannot divert it (issue 17)
+    # the FCU link follows only the autopilot itself: a flood from another port cannot divert it
     link = open_link(cfg['fcu'], 'udp0', peer=(cfg['target_system_id'], cfg['target_component_id']))
     if cfg['signing']:
         link.enable_signing(*cfg['signing'], required=cfg['signing/required'])

@@ -4,7 +4,7 @@ Each datagram is written as the references were captured (reference/conversation
 Ethernet/IPv4/UDP on loopback, the FCU's side from port 14580 to 14540 and the ROS side's the other
 way, whatever ports the recorded link really used, so that a recording of any SITL instance reads
 like the references. Stamps are the caller's: the relay gives simulated seconds
-(offboard_py.simclock), so a flight at 5x compares second for second with one recorded in real time.
+(offboard_py.simtime), so a flight at 5x compares second for second with one recorded in real time.
 Standard library only.
 """
 

@@ -7,7 +7,7 @@ Both links take the same requests through one set of handlers, and a reply goes 
 the link its request came from. Every COMMAND_LONG/COMMAND_INT gets a COMMAND_ACK through a
 table {MAV_CMD: handler}; what is addressed to another system is ignored. The flight stack
 (sim.flight) steps at `rate_hz` of its clock (real time, or simulated time at `speed` times
-real time: offboard_py.simclock); the streams due at each step are built for that step (each
+real time: offboard_py.simtime); the streams due at each step are built for that step (each
 message once, whatever the number of links), and those of the `steps_per_wakeup` steps of one
 wake-up go out together (run()), each message in a datagram of its own as PX4 frames them; what
 the flight stack says (mode changes, texts, mission progress) goes out on both links at once.
@@ -22,12 +22,12 @@ import struct
 from offboard_py import param_codec, px4_modes, sitl_ports
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
-from offboard_py.simclock import SimClock
+from offboard_py.simtime import SimClock
 from offboard_py.signing import SigningKeyError, read_signing_key, write_signing_key
 from offboard_py.sim import events as ev
 from offboard_py.sim import mission as missions
 from offboard_py.sim import offboard_input
-from offboard_py.sim import params as sim_params
+from offboard_py.sim import param_store as sim_params
 from offboard_py.sim import telemetry
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame

@@ -1,6 +1,6 @@
 """The commander of the simulated PX4: modes, arming, the offboard signal, failsafes, timers.
 
-Rules, as current PX4 applies them (../shared/reference/px4-behaviour.md):
+Rules, as current PX4 applies them (reference/px4-behaviour.md):
 - Boots in AUTO.LOITER, disarmed; arming is refused for `ready_delay_s` while the
   estimator settles ("Ready for takeoff" after about 5 s on PX4 SITL).
 - HEARTBEAT's system_status as PX4 main reports it (reference/px4-sitl-measured.md, "Turn 3

@@ -20,7 +20,7 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim.commander import Commander
 from offboard_py.sim.navigator import Navigator
-from offboard_py.sim.vehicle import Estimator, Vehicle
+from offboard_py.sim.vehicle import Estimator, VehicleModel
 
 NAN3 = (float('nan'),) * 3
 HOVER_THRUST = 0.5  # normalised thrust that holds the vehicle (PX4's MPC_THR_HOVER default)
@@ -105,7 +105,7 @@ class Flight:
     def __init__(self, params, frame, now_s, ready_delay_s=5.0, rc=False, ideal=False, seed=None):
         self.params = params
         seed = params['MAV_SYS_ID'] if seed is None else seed
-        self.vehicle = Vehicle(params, estimator=Estimator(seed, ideal=ideal))
+        self.vehicle = VehicleModel(params, estimator=Estimator(seed, ideal=ideal))
         self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
         self.navigator = Navigator(params, frame, self.vehicle)
         self.offboard_sp = None
@@ -116,7 +116,7 @@ class Flight:
     def set_ideal(self, seed=None):
         """Before the flight: an ideal vehicle (no noise, no wander, the ground at home's z = 0)."""
         seed = self.params['MAV_SYS_ID'] if seed is None else seed
-        self.vehicle = Vehicle(self.params, estimator=Estimator(seed, ideal=True))
+        self.vehicle = VehicleModel(self.params, estimator=Estimator(seed, ideal=True))
         self.navigator.vehicle = self.vehicle
         self.navigator.on_mode(self.commander.nav_mode)
         self._set_home()

@@ -1,6 +1,6 @@
 """Offboard input of the simulated PX4: a SET_POSITION_TARGET_LOCAL_NED -> a vehicle Setpoint.
 
-As PX4 reads the message (../shared/reference/px4-behaviour.md and px4-sitl-measured.md):
+As PX4 reads the message (reference/px4-behaviour.md and px4-sitl-measured.md):
 - frames LOCAL_NED and BODY_NED; BODY_NED rotates velocity and acceleration by the
   vehicle's yaw and ignores position; any other frame is refused;
 - each axis whose POSITION_TARGET_TYPEMASK_*_IGNORE bit is set is left uncontrolled;

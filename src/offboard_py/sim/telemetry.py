@@ -22,7 +22,7 @@ from offboard_py.sim.navigator import rtl_time_estimate
 from offboard_py.sim.vehicle import quaternion_from_thrust
 
 # PX4's MAVLINK_MODE_ONBOARD (mavlink_main.cpp) at the rates PX4 SITL sends on its onboard link
-# (../shared/reference/px4-sitl-census.json, e.g. 98.5 measured for the 100 Hz ATTITUDE stream;
+# (reference/px4-sitl-census.json, e.g. 98.5 measured for the 100 Hz ATTITUDE stream;
 # GPS_RAW_INT follows the simulated GPS: 8 Hz)
 ONBOARD_RATES_HZ = {
     'HEARTBEAT': 1.0,

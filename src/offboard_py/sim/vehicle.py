@@ -171,7 +171,7 @@ class Estimator:
         return pos, vel
 
 
-class Vehicle:
+class VehicleModel:
     """State and dynamics of one multicopter. `params` is a ParamStore (read every step).
     `position`/`velocity` are the truth; `estimate` is what PX4 knows (and reports)."""
 

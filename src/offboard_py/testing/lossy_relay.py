@@ -27,7 +27,7 @@ import socket
 import sys
 
 from offboard_py.conversation.recording import PcapWriter
-from offboard_py.simclock import SimClock, SpeedError
+from offboard_py.simtime import SimClock, SpeedError
 
 
 def parse_args(argv):

@@ -50,7 +50,7 @@ def now():
 
 class ClockGuard:
     """How far this node's ROS time trails the vehicles' clock (speed x the monotonic clock,
-    offboard_py.simclock) in simulated time; 0 in real time."""
+    offboard_py.simtime) in simulated time; 0 in real time."""
 
     def __init__(self):
         self.speed = float(rospy.get_param('/sim_clock/speed', 1.0)) if _sim_time() else 1.0

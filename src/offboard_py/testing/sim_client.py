@@ -11,7 +11,7 @@ this are in offboard_py.testing.pytest_plugin. No ROS here.
 
 Simulated time: every simulator runs at speed K = OFFBOARD_PY_SPEED (1, real time, if unset)
 unless its arguments have their own --speed, and its client runs on the same clock
-(offboard_py.simclock): arrival stamps, deadlines and sleeps are in simulated seconds, so a
+(offboard_py.simtime): arrival stamps, deadlines and sleeps are in simulated seconds, so a
 test reads the same at any speed. Wall-clock limits (starting the process, the kernel's
 socket buffer) stay in wall seconds.
 """
@@ -29,10 +29,10 @@ from pymavlink import mavutil
 
 from offboard_py import px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, check_pymavlink_version, mavlink
-from offboard_py.simclock import SimClock, parse_speed, speed_from_env
+from offboard_py.simtime import SimClock, parse_speed, speed_from_env
 from offboard_py.testing import ports
 from offboard_py.testing.processes import OutputProcess
-from offboard_py.testing.typemask import POSITION_AND_YAW
+from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
 check_pymavlink_version(warnings.warn)  # in pytest's warnings summary when pymavlink is not the tested one
 

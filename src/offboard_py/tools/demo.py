@@ -20,8 +20,8 @@ import time
 
 from offboard_py import stack
 from offboard_py.master import MasterTimeout, master_online, wait_for_master
-from offboard_py.phases import PhaseWatcher
-from offboard_py.simclock import SimClock, SpeedError, parse_speed
+from offboard_py.tools.hover_phases import PhaseWatcher
+from offboard_py.simtime import SimClock, SpeedError, parse_speed
 
 HOLD_TOLERANCE_M = 0.1
 MASTER_TIMEOUT_S = 30.0

@@ -5,7 +5,7 @@ import math
 import pytest
 
 from offboard_py.sim_clock import ClockTicks
-from offboard_py.simclock import SimClock, SpeedError, parse_speed, speed_from_env
+from offboard_py.simtime import SimClock, SpeedError, parse_speed, speed_from_env
 
 
 @pytest.mark.parametrize('text, speed', [('5', 5.0), (2, 2.0), ('0.5', 0.5), ('1', 1.0), (' 10 ', 10.0)])

@@ -70,7 +70,7 @@ RANGES = {
     'MPC_XY_VEL_P_ACC': (1.2, 5.0),
     'MPC_Z_VEL_P_ACC': (2.0, 15.0),
     'SYS_FAILURE_EN': (0, 1),
-    # the flight model (issue 13): PX4's trajectory, velocity control, thrust and return cone
+    # the flight model: PX4's trajectory, velocity control, thrust and return cone
     'MPC_ACC_HOR': (2.0, 15.0),
     'MPC_JERK_AUTO': (1.0, 80.0),
     'MPC_Z_V_AUTO_UP': (0.5, 8.0),
