@@ -1,11 +1,10 @@
 """One MAVLink 2 endpoint over UDP: the link layer shared by the bridge and the simulated PX4.
 
 - `parse_udp_url()` reads mavros's URL syntax `udp://[bind_host][:port]@[remote_host][:port]`.
-- `MavlinkLink` owns a UDP socket and a pymavlink codec. It learns its remote from the
-  packets it receives in one of two ways: as mavros's UDP link does (every sender of a valid
-  frame becomes the remote: a client bound on 14540 answers PX4 wherever PX4 sends from), or
-  as PX4's does (`lock_remote`: the first datagram's sender becomes the remote for good). It
-  parses every datagram and hands each message to the handlers registered for its type: a
+- `MavlinkLink` owns a UDP socket and a pymavlink codec; where it sends is its remote policy's
+  (offboard_py.link_remote: mavros's rule, every sender of a valid frame from the peer becomes the
+  remote, or PX4's, `lock_remote`: the first datagram's sender for good). It sends one message a
+  datagram, as PX4 and mavros do, and parses every datagram and hands each message to the handlers registered for its type: a
   plugin is a set of handlers, not a branch in one long if/elif chain. A type is decoded only
   while one of its handlers needs it (`on(..., needed=)`); the rest are CRC-checked and
   counted. Malformed bytes are counted and dropped, never raised.
@@ -17,7 +16,6 @@ It knows nothing of ROS or of the simulator; the caller owns the receive loop
 
 import collections
 import errno
-import ipaddress
 import logging
 import socket
 import threading
@@ -25,6 +23,7 @@ import time
 from urllib.parse import urlsplit
 
 from offboard_py import wire
+from offboard_py.link_remote import MavconnRemote, Px4Partner
 from offboard_py.dialect import mavlink
 from offboard_py.signing import LinkSigning
 
@@ -41,7 +40,6 @@ MAVROS_MAX_DATAGRAM = 296
 MAX_PACKED_BYTES = 1400
 # PX4's UDP link (mavlink_receiver.cpp): with a default partner not on this host, the partner is
 # taken from the first datagram after this long since the link started (seconds of its clock)
-LOCK_GRACE_S = 3.0
 
 log = logging.getLogger(__name__)
 
@@ -102,17 +100,6 @@ def parse_udp_url(url, default_bind_port=DEFAULT_BIND_PORT, default_remote_port=
     return UdpUrl(bind, remote, broadcast, permanent)
 
 
-def _on_this_host(address):
-    """True for a loopback or unspecified (0.0.0.0: this host) address, or none."""
-    if address is None:
-        return True
-    try:
-        host = ipaddress.ip_address(address[0])
-    except ValueError:
-        return False
-    return host.is_loopback or host.is_unspecified
-
-
 class _Sink:
     """pymavlink writes packed frames here; the link sends them itself."""
 
@@ -128,7 +115,7 @@ class MavlinkLink:
         """`pack_datagrams`: send_many() packs several frames into one datagram (not PX4's or mavros's
         framing, which is one message a datagram; real mavros cannot read a packed datagram over 296
         bytes). `remote`: where to send until one is learned (None: nowhere). `learn_remote`: follow every
-        sender of a valid frame (mavros). `lock_remote`: PX4's rule instead (see `_lock_partner`), on
+        sender of a valid frame (mavros). `lock_remote`: PX4's rule instead (offboard_py.link_remote), on
         `clock` (seconds). `peer`: (system id, component id) of what the remote is (None: anyone; the
         bridge's FCU link: its target system and component). A frame from another system is then
         CRC-checked and counted (`other_system`) but not decoded, so junk from other systems is dropped
@@ -144,20 +131,13 @@ class MavlinkLink:
             raise OSError(err.errno, 'cannot bind UDP %s:%d: %s' % (bind[0], bind[1], err.strerror))
         self.sock.setblocking(False)
         self.bind = self.sock.getsockname()
-        self.remote = self._resolve(remote) if remote else None
-        self.learn_remote = learn_remote and not lock_remote
-        self.peer = None if peer is None else (int(peer[0]), int(peer[1]))
-        self.lock_remote = lock_remote
-        self.partner_locked = False
-        self._clock = clock
-        # PX4 starts with 127.0.0.1 and takes the first datagram's sender at once; a default
-        # partner elsewhere is replaced only by a datagram LOCK_GRACE_S after the start
-        self._lock_after_s = None
-        if lock_remote and not _on_this_host(self.remote):
-            self._lock_after_s = clock() + LOCK_GRACE_S
         self.name = name  # for the log, as mavconn names its links (udp0, udp1)
+        self.peer = None if peer is None else (int(peer[0]), int(peer[1]))
+        address = self._resolve(remote) if remote else None
+        # where to send: PX4's partner rule or mavconn's (offboard_py.link_remote)
+        self.remote_policy = (Px4Partner(address, name, clock) if lock_remote
+                              else MavconnRemote(address, name, learn=learn_remote))
         self.pack_datagrams = pack_datagrams
-        self.remote_changes = 0
         self.mav = mavlink.MAVLink(_Sink(), srcSystem=system_id, srcComponent=component_id)
         self._send_lock = threading.Lock()  # pymavlink's sequence counter is not thread-safe
         self.mav.robust_parsing = True
@@ -319,12 +299,12 @@ class MavlinkLink:
         pymavlink's decode: its signature decides whether it counts."""
         self.stats['datagrams'] += 1
         self.stats['bytes_received'] += len(data)
-        if self.lock_remote and sender is not None:
-            if not self.partner_locked and not self._lock_partner(sender):
-                self.stats['before_partner'] += 1
-                return  # PX4 reads nothing until it knows its partner
-            if sender != self.remote:
-                self.stats['other_senders'] += 1  # read, but the replies still go to the partner
+        policy = self.remote_policy
+        if not policy.admit(sender):
+            self.stats['before_partner'] += 1
+            return  # PX4 reads nothing until it knows its partner
+        if sender is not None and sender != policy.address:
+            self.stats['other_senders'] += 1  # read; where the replies go is the policy's
         decode_all = self.signing.active
         wanted = self._wanted_ids
         peer = self.peer
@@ -406,9 +386,8 @@ class MavlinkLink:
                 self.on_datagram(data)  # passed on raw (to a GCS) as before, but it moves nothing
             return
         self.last_receive_s = time.monotonic()
-        if (sender is not None and self.learn_remote and sender != self.remote and from_peer
-                and self.signing.may_move_remote(messages)):
-            self._move_remote(sender)  # before dispatch: replies go to whoever asked
+        if sender is not None and from_peer and self.signing.may_move_remote(messages):
+            policy.heard(sender)  # before dispatch: under mavconn's rule replies go to whoever asked
         if self.on_datagram is not None:
             self.on_datagram(data)
         self.stats['received'] += len(messages) + undecoded
@@ -416,28 +395,14 @@ class MavlinkLink:
             for callee in callees:
                 self._call(callee, arg)
 
-    def _lock_partner(self, sender):
-        """PX4's UDP rule (mavlink_receiver.cpp, v1.10 to main): until the partner is known, the sender
-        of a datagram becomes the partner, for good, when the default partner is 127.0.0.1 (PX4 SITL's,
-        so the first datagram whatever it holds, taken before parsing) or once LOCK_GRACE_S have passed
-        since the link started; a datagram that does not lock it is dropped unread. PX4 never moves the
-        partner again: a flood from another port is read, but the telemetry and replies stay where
-        they went. True once locked."""
-        if self._lock_after_s is not None and self._clock() < self._lock_after_s:
-            return False
-        self.remote = sender
-        self.partner_locked = True
-        log.info('%s: partner address %s:%d (kept for good, as PX4 does)', self.name, sender[0], sender[1])
-        return True
+    @property
+    def remote(self):
+        """Where this link sends now (None: nowhere yet)."""
+        return self.remote_policy.address
 
-    def _move_remote(self, sender):
-        """Answer `sender` from now on, and say so as mavconn does ("udp0: Remote address: ...");
-        after 10 moves only every 100th is logged (a hostile sender could move it often)."""
-        self.remote = sender
-        self.remote_changes += 1
-        if self.remote_changes <= 10 or self.remote_changes % 100 == 0:
-            log.info('%s: Remote address: %s:%d%s', self.name, sender[0], sender[1],
-                     '' if self.remote_changes <= 10 else ' (%d changes)' % self.remote_changes)
+    @property
+    def partner_locked(self):
+        return getattr(self.remote_policy, 'locked', False)
 
     def _call(self, handler, msg):
         try:

@@ -8,7 +8,8 @@ from other systems are not decoded."""
 
 from offboard_py import wire
 from offboard_py.dialect import mavlink
-from offboard_py.mavlink_link import LOCK_GRACE_S, MavlinkLink
+from offboard_py.link_remote import LOCK_GRACE_S
+from offboard_py.mavlink_link import MavlinkLink
 
 from manual_clock import ManualClock
 

@@ -99,6 +99,11 @@ class Bridge:
                 hook(frame)
         self.link.on_raw(msg_type, filtered)
 
+    def on_frames(self, hook, needed=None):
+        """Call hook(frame bytes) for every valid frame from the FCU link, any system's, read or not
+        (mavros's mavlink/from), while `needed()` says so."""
+        self.link.on_frames(hook, needed)
+
     @staticmethod
     def listened(*publishers):
         """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
@@ -109,6 +114,10 @@ class Bridge:
         if msg.get_msgId() == mavlink.MAVLINK_MSG_ID_TIMESYNC and msg.tc1 == 0:  # a round trip to time: read the answer at once
             self._prompt_until_s = time.monotonic() + PROMPT_S
         return self.link.send(msg)
+
+    def send_frame(self, frame):
+        """Send a frame packed elsewhere as it is (mavros's mavlink/to), in a datagram of its own."""
+        return self.link.send_bytes(frame)
 
     # -- ROS ----------------------------------------------------------------------------------
 

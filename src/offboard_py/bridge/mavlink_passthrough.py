@@ -62,7 +62,7 @@ class MavlinkPassthrough:
         self.bridge = bridge
         self.pub = bridge.publisher('mavlink/from', Mavlink, queue_size=100)
         self.sub = bridge.subscriber('mavlink/to', Mavlink, self._to_fcu)
-        bridge.link.on_frames(self._from_fcu, needed=bridge.listened(self.pub))
+        bridge.on_frames(self._from_fcu, needed=bridge.listened(self.pub))
 
     def _from_fcu(self, frame):
         self.pub.publish(frame_to_msg(frame, self.bridge.now()))
@@ -73,4 +73,4 @@ class MavlinkPassthrough:
         except (ValueError, struct.error) as err:
             rospy.logerr('mavlink/to: message %d not sent: %s', msg.msgid, err)
             return
-        self.bridge.link.send_bytes(frame)
+        self.bridge.send_frame(frame)
