@@ -354,9 +354,12 @@ class BridgeTest(OffboardTestCase):
         self.wait_for_connected(self.sim, 15.0)
         home = rospy.wait_for_message('mavros/home_position/home', HomePosition, 20.0)
         self.assertAlmostEqual(home.geo.latitude, 47.397742, places=5)
-        # PX4's home is the estimate where it was set: on the ground the estimate reads about
-        # 0.17 m above its origin (px4-sitl-measured.md), so home is a little off the spawn altitude 488 m
-        self.assertAlmostEqual(home.geo.altitude, 488.0, delta=0.5)
+        # PX4's home is the estimate where it was set: after a fresh start the ground estimate reads
+        # local z -0.10 to -0.55 m (reference/px4-sitl-measured.md, Turn 3, section 7), so home is
+        # that much above the spawn altitude 488 m (10 % of the span either side)
+        low, high = 488.0 + 0.10 - 0.045, 488.0 + 0.55 + 0.045
+        self.assertTrue(low <= home.geo.altitude <= high, 'home altitude %.3f m, PX4 SITL: %.2f..%.2f m'
+                        % (home.geo.altitude, low, high))
         fix = rospy.wait_for_message('mavros/global_position/global', NavSatFix, 5.0)
         self.assertAlmostEqual(fix.longitude, 8.545594, places=4)
         imu = rospy.wait_for_message('mavros/imu/data', Imu, 5.0)
