@@ -269,8 +269,151 @@ class MissionRunner:
         return self.flyer.direct(land_setpoint(self.params, target, vehicle))
 
 
+class NavigatorMode:
+    """One AUTO mode of the navigator, as PX4 gives each its own class (navigator/takeoff.cpp,
+    land.cpp, rtl.cpp, mission.cpp, loiter.cpp): on_activation() when the mode begins to fly,
+    setpoint() every step, landing() for EXTENDED_SYS_STATE. `nav` is the Navigator (the vehicle,
+    the parameters, home, the hold point and the events)."""
+
+    def __init__(self, nav):
+        self.nav = nav
+
+    def on_activation(self):
+        pass
+
+    def on_inactivation(self):
+        pass
+
+    def setpoint(self, armed, now_s):
+        return vm.hold(self.nav.hold_point, self.nav.hold_yaw)
+
+    def landing(self):
+        return False
+
+
+class Loiter(NavigatorMode):
+    """AUTO.LOITER, and any mode without a setpoint of its own: hold where the mode began (after a
+    takeoff, at the takeoff altitude)."""
+
+    def __init__(self, nav):
+        super().__init__(nav)
+        self.after_takeoff = None  # where to hold once a takeoff completes
+
+    def on_activation(self):
+        if self.after_takeoff is not None:
+            self.nav.hold_point = self.after_takeoff
+
+
+class Takeoff(NavigatorMode):
+    """AUTO.TAKEOFF: climb above the takeoff point to its altitude; report TakeoffComplete within
+    NAV_MC_ALT_RAD, and have the loiter that follows hold there."""
+
+    def __init__(self, nav):
+        super().__init__(nav)
+        self.target = None  # local NED
+
+    def on_activation(self):
+        nav, v = self.nav, self.nav.vehicle
+        if self.target is None:
+            self.target = (v.position[0], v.position[1], nav.home[2] - nav.params['MIS_TAKEOFF_ALT'])
+
+    def on_inactivation(self):
+        self.target = None
+
+    def setpoint(self, armed, now_s):
+        nav, v = self.nav, self.nav.vehicle
+        if self.target is None:
+            return super().setpoint(armed, now_s)
+        if armed and abs(v.position[2] - self.target[2]) <= nav.params['NAV_MC_ALT_RAD']:
+            nav.events.append(ev.TakeoffComplete())
+            nav.loiter.after_takeoff = self.target  # PX4 loiters at the takeoff altitude
+            return nav.flyer.direct(vm.hold(self.target, nav.hold_yaw))
+        return nav.flyer.take_off(v, self.target, now_s)
+
+
+class Land(NavigatorMode):
+    """AUTO.LAND: descend where the mode began at PX4's landing speeds."""
+
+    def __init__(self, nav):
+        super().__init__(nav)
+        self.xy = None
+
+    def on_activation(self):
+        v = self.nav.vehicle
+        self.xy = (v.position[0], v.position[1])
+
+    def setpoint(self, armed, now_s):
+        return land_setpoint(self.nav.params, self.xy, self.nav.vehicle)
+
+    def landing(self):
+        return True
+
+
+class Rtl(NavigatorMode):
+    """AUTO.RTL, PX4's direct return: climb to the return altitude, return home at MPC_XY_CRUISE,
+    descend to RTL_DESCEND_ALT without stopping, land."""
+
+    def __init__(self, nav):
+        super().__init__(nav)
+        self.phase = None
+        self.down = None  # the return altitude as local z
+
+    def on_activation(self):
+        nav = self.nav
+        self.down = rtl_return_down(nav.params, nav.vehicle.position, nav.home)
+        self.phase = 'climb'
+
+    def landing(self):
+        return self.phase in ('descend', 'land')
+
+    def setpoint(self, armed, now_s):
+        nav = self.nav
+        v, p, home, f = nav.vehicle, nav.params, nav.home, nav.flyer
+        pos = v.position
+        if self.phase == 'climb':
+            if pos[2] <= self.down + p['NAV_MC_ALT_RAD']:
+                self.phase = 'return'
+            else:
+                return f.fly_to(v, (nav.hold_point[0], nav.hold_point[1], self.down), now_s)
+        if self.phase == 'return':
+            if math.hypot(pos[0] - home[0], pos[1] - home[1]) <= p['NAV_ACC_RAD']:
+                self.phase = 'descend'
+            else:
+                return f.fly_to(v, (home[0], home[1], self.down), now_s)
+        if self.phase == 'descend':
+            descend_down = home[2] - p['RTL_DESCEND_ALT']
+            if pos[2] >= descend_down - p['NAV_MC_ALT_RAD']:
+                self.phase = 'land'
+            else:
+                # no stop at RTL_DESCEND_ALT: the landing goes on at the landing speed there
+                return f.fly_to(v, (home[0], home[1], descend_down), now_s,
+                                speed_at_target=land_speed(p, p['RTL_DESCEND_ALT']))
+        return f.direct(land_setpoint(p, (home[0], home[1]), v))
+
+
+class Mission(NavigatorMode):
+    """AUTO.MISSION: fly the mission's items (MissionRunner), reporting those reached."""
+
+    def on_activation(self):
+        nav = self.nav
+        nav.mission.restart_if_finished()
+        nav.events.append(ev.MissionCurrent(nav.mission.seq))
+
+    def setpoint(self, armed, now_s):
+        nav = self.nav
+        if not armed:
+            return super().setpoint(armed, now_s)
+        sp = nav.mission.setpoint(nav.vehicle, now_s)
+        for seq in nav.mission.take_reached():
+            nav.events.append(ev.ItemReached(seq))
+            if not nav.mission.finished:
+                nav.events.append(ev.MissionCurrent(nav.mission.seq))
+        return sp
+
+
 class Navigator:
-    """The setpoint of the AUTO modes (and the hold of modes without one) for the mode flying now."""
+    """The setpoint of the AUTO modes (and the hold of modes without one) for the mode flying now:
+    one NavigatorMode per AUTO mode, the hold for the others."""
 
     def __init__(self, params, frame, vehicle):
         self.params, self.vehicle = params, vehicle
@@ -280,11 +423,13 @@ class Navigator:
         self.home = (0.0, 0.0, 0.0)
         self.hold_point = tuple(vehicle.position)
         self.hold_yaw = vehicle.yaw
-        self.takeoff_target = None
-        self.land_xy = None
-        self.rtl_phase = None
-        self.rtl_down = None   # RTL: the return altitude as local z
-        self._loiter_at = None  # where AUTO.LOITER holds after a takeoff (the takeoff altitude)
+        self.loiter = Loiter(self)
+        self.takeoff = Takeoff(self)
+        self.rtl = Rtl(self)
+        self.modes = {'AUTO.LOITER': self.loiter, 'AUTO.TAKEOFF': self.takeoff, 'AUTO.LAND': Land(self),
+                      'AUTO.RTL': self.rtl, 'AUTO.MISSION': Mission(self)}
+        self.hold = NavigatorMode(self)  # the modes without a setpoint of their own
+        self.active = self.hold
 
     @property
     def home(self):
@@ -295,29 +440,29 @@ class Navigator:
         self._home = tuple(home)
         self.mission.home = self._home
 
+    @property
+    def rtl_phase(self):
+        return self.rtl.phase
+
+    @property
+    def rtl_down(self):
+        return self.rtl.down
+
     # -- what the commander decided ------------------------------------------------------------
 
     def on_mode(self, mode):
-        """A new mode is flying: remember where it began."""
-        v, p = self.vehicle, self.params
+        """A new mode is flying: remember where it began, and start its navigator mode."""
+        v = self.vehicle
         self.hold_point = (v.position[0], v.position[1], min(v.position[2], v.ground_z))
         self.hold_yaw = v.yaw
-        if mode == 'AUTO.LOITER' and self._loiter_at is not None:
-            self.hold_point = self._loiter_at
-        self._loiter_at = None
         self.flyer.direct(None)
-        if mode == 'AUTO.LAND':
-            self.land_xy = (v.position[0], v.position[1])
-        elif mode == 'AUTO.RTL':
-            self.rtl_down = rtl_return_down(p, v.position, self.home)
-            self.rtl_phase = 'climb'
-        elif mode == 'AUTO.MISSION':
-            self.mission.restart_if_finished()
-            self.events.append(ev.MissionCurrent(self.mission.seq))
-        if mode != 'AUTO.TAKEOFF':
-            self.takeoff_target = None
-        elif self.takeoff_target is None:
-            self.takeoff_target = (v.position[0], v.position[1], self.home[2] - p['MIS_TAKEOFF_ALT'])
+        new = self.modes.get(mode, self.hold)
+        for other in self.modes.values():
+            if other is not new:
+                other.on_inactivation()
+        new.on_activation()
+        self.loiter.after_takeoff = None
+        self.active = new
 
     def on_armed(self, mode):
         self.hold_point = tuple(self.vehicle.position)
@@ -336,7 +481,7 @@ class Navigator:
 
     def set_takeoff_height(self, height):
         v = self.vehicle
-        self.takeoff_target = (v.position[0], v.position[1], self.home[2] - height)
+        self.takeoff.target = (v.position[0], v.position[1], self.home[2] - height)
 
     def load_mission(self, items, flying_it):
         self.mission.load(items)
@@ -345,50 +490,9 @@ class Navigator:
 
     def landing(self, mode):
         """Whether the vehicle is landing in `mode` (EXTENDED_SYS_STATE's LANDING)."""
-        return mode == 'AUTO.LAND' or (mode == 'AUTO.RTL' and self.rtl_phase in ('descend', 'land'))
+        return self.modes.get(mode, self.hold).landing()
 
     # -- the setpoint ------------------------------------------------------------------------
 
     def setpoint(self, mode, armed, now_s):
-        v, p = self.vehicle, self.params
-        if mode == 'AUTO.TAKEOFF' and self.takeoff_target is not None:
-            if armed and abs(v.position[2] - self.takeoff_target[2]) <= p['NAV_MC_ALT_RAD']:
-                self.events.append(ev.TakeoffComplete())
-                self._loiter_at = self.takeoff_target  # PX4 loiters at the takeoff altitude
-                return self.flyer.direct(vm.hold(self.takeoff_target, self.hold_yaw))
-            return self.flyer.take_off(v, self.takeoff_target, now_s)
-        if mode == 'AUTO.LAND':
-            return land_setpoint(p, self.land_xy, v)
-        if mode == 'AUTO.RTL':
-            return self._rtl_setpoint(now_s)
-        if mode == 'AUTO.MISSION' and armed:
-            sp = self.mission.setpoint(v, now_s)
-            for seq in self.mission.take_reached():
-                self.events.append(ev.ItemReached(seq))
-                if not self.mission.finished:
-                    self.events.append(ev.MissionCurrent(self.mission.seq))
-            return sp
-        return vm.hold(self.hold_point, self.hold_yaw)
-
-    def _rtl_setpoint(self, now_s):
-        v, p, home, f = self.vehicle, self.params, self.home, self.flyer
-        pos = v.position
-        if self.rtl_phase == 'climb':
-            if pos[2] <= self.rtl_down + p['NAV_MC_ALT_RAD']:
-                self.rtl_phase = 'return'
-            else:
-                return f.fly_to(v, (self.hold_point[0], self.hold_point[1], self.rtl_down), now_s)
-        if self.rtl_phase == 'return':
-            if math.hypot(pos[0] - home[0], pos[1] - home[1]) <= p['NAV_ACC_RAD']:
-                self.rtl_phase = 'descend'
-            else:
-                return f.fly_to(v, (home[0], home[1], self.rtl_down), now_s)
-        if self.rtl_phase == 'descend':
-            descend_down = home[2] - p['RTL_DESCEND_ALT']
-            if pos[2] >= descend_down - p['NAV_MC_ALT_RAD']:
-                self.rtl_phase = 'land'
-            else:
-                # no stop at RTL_DESCEND_ALT: the landing goes on at the landing speed there
-                return f.fly_to(v, (home[0], home[1], descend_down), now_s,
-                                speed_at_target=land_speed(p, p['RTL_DESCEND_ALT']))
-        return f.direct(land_setpoint(p, (home[0], home[1]), v))
+        return self.modes.get(mode, self.hold).setpoint(armed, now_s)
