@@ -896,11 +896,11 @@ def test_timers_wait_for_a_wake_up_within_their_slack_and_keep_their_rate():
     streams, the timers run in the wake-ups its datagrams cause); a task run late stays on its
     schedule: ten runs, each up to the slack late, are ten periods."""
     rig = Rig(setpoint.Setpoint)  # a plugin without timers of its own
-    assert rig.bridge._periodic == [] and rig.bridge._next_due_s() is None
+    assert rig.bridge.scheduler.periodic == [] and rig.bridge.scheduler.next_due_s() is None
     runs = []
     task = rig.bridge.every(0.1, runs.append)
     due_s = task[1]
-    assert rig.bridge._next_due_s() == pytest.approx(due_s + core.TIMER_SLACK_S)
+    assert rig.bridge.scheduler.next_due_s() == pytest.approx(due_s + core.TIMER_SLACK_S)
     for i in range(10):
         rig.bridge.run_periodic(due_s + 0.1 * i + core.TIMER_SLACK_S * 0.9)
     assert len(runs) == 10 and task[1] == pytest.approx(due_s + 1.0), 'late runs, the same schedule'

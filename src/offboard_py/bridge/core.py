@@ -3,19 +3,20 @@
 A plugin is a class built with the Bridge and using only this interface:
 - MAVLink: `on(msg_type, handler, accept=filters.SYSTEM, needed=None)`, `send(msg)`, `mav` (the
   codec that builds messages), `target_system`, `target_component`, `attitude` (the shared
-  cache); `listened(*publishers)` makes a `needed`; `commands` (the cmd plugin's COMMAND_ACK
+  cache); `on_raw` (a frame, decoded when read), `on_frames` and `send_frame` (mavros's
+  mavlink/from and mavlink/to); `listened(*publishers)` makes a `needed`; `commands` (the cmd plugin's COMMAND_ACK
   waiter, when loaded: `expect(cmd)` before sending a command nothing waits for);
 - ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
   to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
-- time and connection: `monotonic_s()`, `every`, `after_connect`, `on_connection`, `connected`;
+- time and connection: `monotonic_s()`, `every`, `after_connect`, `retry_while_connected`
+  (bridge/scheduler.py holds the timers and the retry policy), `on_connection`, `connected`;
 - `diagnostic(name, status)`: status() -> (level, message, [(key, value)]) for /diagnostics.
 One thread receives MAVLink and runs the handlers and the periodic work (`start()`); service
 calls run in other threads and wait on events that thread sets. This module opens no
 socket and reads no ROS parameter: node.py does that.
 """
 
-import itertools
 import select
 import threading
 import time
@@ -26,13 +27,12 @@ from offboard_py import wire
 from offboard_py.dialect import mavlink
 from offboard_py.bridge import filters
 from offboard_py.bridge.attitude import Attitude
+from offboard_py.bridge import scheduler
+from offboard_py.bridge.scheduler import RETRY_DELAYS_S, TIMER_SLACK_S  # noqa: F401 (TIMER_SLACK_S: the tests')
 
 
 WAIT_SLICE_S = 0.02  # wall seconds between looks at a deadline on the bridge's clock
 MAX_WAIT_S = 0.2     # the receive loop's longest sleep in real time (how soon it sees stop())
-# How late a periodic task may run (bridge clock) so that it runs in a wake-up the FCU's datagrams
-# cause anyway (PX4 sends hundreds a second, the simulated PX4 50) instead of one of its own.
-TIMER_SLACK_S = 0.02
 # While the FCU streams (PX4: about 400 datagrams a second, one message each), the receive loop reads
 # what has come every DRAIN_S of wall time instead of waking for each datagram: a wake-up costs the
 # process more than the datagram it brings (bench/replay_bench.py). Under mavros's and PX4's TIMESYNC
@@ -41,7 +41,6 @@ DRAIN_S = 0.004
 # ... and for PROMPT_S after the bridge asks for a TIMESYNC it wakes for each datagram again, so the
 # FCU's answer is read as it comes and the round trip measured is the link's.
 PROMPT_S = 0.010
-RETRY_DELAYS_S = (1.0, 2.0, 4.0, 8.0, 16.0, 30.0)  # between tries of a connection-time pull; then every 30 s
 
 class Bridge:
     def __init__(self, cfg, link, ros, plugins=(), gcs=None, clock=time.monotonic):
@@ -59,9 +58,7 @@ class Bridge:
             gcs.on_datagram = link.send_bytes     # GCS -> FCU, raw
         self._ros = ros
         self._clock = clock
-        self._periodic = []  # [period_s, next_s, callback]
-        self._one_shots = []  # (due_s, callback): after_connect
-        self._tasks_added = False  # a task was added: the receive loop works out its next wake-up again
+        self.scheduler = scheduler.Scheduler(clock, rospy.logerr)  # every(), after_connect(): run_due()
         self._prompt_until_s = 0.0  # monotonic: until then the loop wakes for each datagram (PROMPT_S)
         self.connection_epoch = 0  # counts connections: a retry loop ends with its own
         self.connected = False
@@ -177,35 +174,20 @@ class Bridge:
 
     def every(self, period_s, callback):
         """Call callback(now_s) every period_s from the receive thread; returns the task (for take_early)."""
-        task = [period_s, self._clock(), callback]
-        self._periodic.append(task)
-        self._tasks_added = True
-        return task
+        return self.scheduler.every(period_s, callback)
 
     def take_early(self, task, now_s):
-        """True, and the periodic task counted as run, when its next run is due within one period
-        of now_s: its caller does the work now, in step with something else; the schedule (and so
-        the rate) stays that of every()."""
-        if task[1] - now_s >= task[0]:
-            return False
-        task[1] = max(task[1], now_s) + task[0]
-        return True
+        """True, and the periodic task counted as run, when its next run is due within one period of now_s
+        (scheduler.Scheduler.take_early)."""
+        return self.scheduler.take_early(task, now_s)
 
     def run_due(self, now_s):
         """Run every task due at now_s: the periodic callbacks, then the one-shots after a connection."""
-        self.run_periodic(now_s)
-        if self._one_shots:
-            self._run_one_shots(now_s)
+        self.scheduler.run_due(now_s)
 
     def run_periodic(self, now_s):
         """Run the periodic callbacks that are due at now_s (the receive loop's clock)."""
-        for task in self._periodic:
-            if now_s >= task[1]:
-                task[1] = max(task[1] + task[0], now_s)
-                try:
-                    task[2](now_s)
-                except Exception:  # a plugin bug must not stop the link
-                    rospy.logerr('periodic task %r failed', task[2], exc_info=True)
+        self.scheduler.run_periodic(now_s)
 
     def diagnostic(self, name, status):
         """Add a status to /diagnostics ("mavros: <name>"): status() -> (level, message, [(key, value)]),
@@ -227,41 +209,23 @@ class Bridge:
         """Call callback() delay_s (bridge clock) after every new connection, in a thread of its own."""
         def start(connected):
             if connected:
-                self._one_shots.append((self._clock() + delay_s, callback))
-                self._tasks_added = True
+                self.scheduler.after(delay_s, callback)
         self.on_connection(start)
-
-    def _run_one_shots(self, now_s):
-        due = [task for task in self._one_shots if now_s >= task[0]]
-        for task in due:
-            self._one_shots.remove(task)
-            threading.Thread(target=task[1], name='after-connect', daemon=True).start()
 
     def retry_while_connected(self, what, attempt, delays=None):
         """attempt() -> (done, detail) until done, while this FCU connection lasts, backing off by `delays`
-        (bridge clock). Each failed try is a warning; a failure with the link gone is an error (the next
-        connection starts again). True once done."""
-        delays = delays or RETRY_DELAYS_S
+        (bridge clock; scheduler.retry). A failure with the link gone is an error (the next connection
+        starts again). True once done."""
         epoch = self.connection_epoch
         pause = threading.Event()  # never set: a sleep on the bridge's clock that shutdown ends
-        for tries in itertools.count(1):
-            if self.is_shutdown() or self.connection_epoch != epoch or not self.connected:
-                return False
-            done, detail = attempt()
-            if done:
-                if tries > 1:
-                    rospy.loginfo('%s succeeded at try %d', what, tries)
-                return True
+
+        def stop():
             if self.is_shutdown():
-                return False
+                return ''
             if self.connection_epoch != epoch or not self.connected:
-                rospy.logerr('%s failed: %s; the FCU link is gone (tried again on the next connection)',
-                             what, detail)
-                return False
-            delay = delays[min(tries - 1, len(delays) - 1)]
-            rospy.logwarn('%s failed: %s; trying again in %.0f s (try %d)', what, detail, delay, tries + 1)
-            self.wait(pause, delay)
-        return False
+                return 'the FCU link is gone (tried again on the next connection)'
+            return None
+        return scheduler.retry(what, attempt, stop, lambda s: self.wait(pause, s), rospy, delays or RETRY_DELAYS_S)
 
     def set_connected(self, connected):
         if connected != self.connected:
@@ -277,16 +241,6 @@ class Bridge:
         self._running = True
         self._thread = threading.Thread(target=self._loop, name='mavlink-receive', daemon=True)
         self._thread.start()
-
-    def _next_due_s(self):
-        """When the loop must wake for its tasks (bridge clock): the earliest due time plus
-        TIMER_SLACK_S; None without any task. A task runs at the first wake-up at or after its
-        due time, so while the FCU streams, the timers (TIMESYNC and HEARTBEAT out, the
-        connection timeout, diagnostics) run in the wake-ups its datagrams cause, up to
-        TIMER_SLACK_S late; a periodic task stays on its schedule (due + period), so its rate
-        is exact."""
-        due = [task[1] for task in self._periodic] + [task[0] for task in self._one_shots]
-        return min(due) + TIMER_SLACK_S if due else None
 
     def _loop(self):
         """Wake when a datagram comes or a task is due, not on a fixed tick: each wake-up of the
@@ -304,9 +258,8 @@ class Bridge:
         due_s = None  # the next wake-up the tasks need (bridge clock), worked out again after they run
         streaming = False
         while self._running and not self.is_shutdown():
-            if due_s is None or self._tasks_added:
-                self._tasks_added = False
-                due_s = self._next_due_s()
+            if due_s is None or self.scheduler.added:
+                due_s = self.scheduler.next_due_s()
             wait_s = longest_wait_s if due_s is None else min(longest_wait_s, max(0.0, due_s - self._clock()))
             try:
                 if streaming and time.monotonic() >= self._prompt_until_s:
