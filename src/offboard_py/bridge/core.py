@@ -4,8 +4,8 @@ A plugin is a class built with the Bridge and using only this interface:
 - MAVLink: `on(msg_type, handler, accept=filters.SYSTEM, needed=None)`, `send(msg)`, `mav` (the
   codec that builds messages), `target_system`, `target_component`, `attitude` (the shared
   cache); `on_raw` (a frame, decoded when read), `on_frames` and `send_frame` (mavros's
-  mavlink/from and mavlink/to); `listened(*publishers)` makes a `needed`; `commands` (the cmd plugin's COMMAND_ACK
-  waiter, when loaded: `expect(cmd)` before sending a command nothing waits for);
+  mavlink/from and mavlink/to); `listened(*publishers)` makes a `needed`; `commands` (the cmd
+  plugin's COMMAND_ACK waiter, when loaded: `expect(cmd)` before sending a command nothing waits for);
 - ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
   to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
