@@ -362,8 +362,10 @@ class BridgeTest(OffboardTestCase):
                         % (home.geo.altitude, low, high))
         fix = rospy.wait_for_message('mavros/global_position/global', NavSatFix, 5.0)
         self.assertAlmostEqual(fix.longitude, 8.545594, places=4)
-        imu = rospy.wait_for_message('mavros/imu/data', Imu, 5.0)
-        self.assertAlmostEqual(imu.linear_acceleration.z, 9.80665, places=1, msg='FLU: gravity reads +z at rest')
+        # SIH's accelerometer on the ground: z mean -9.80 m/s2 (FRD), sd about 0.07 (reference/px4-sitl-
+        # measured.md, Turn 3, section 2): the mean of 25 samples, in FLU
+        samples = [rospy.wait_for_message('mavros/imu/data', Imu, 5.0).linear_acceleration.z for _ in range(25)]
+        self.assertAlmostEqual(sum(samples) / len(samples), 9.80, delta=0.1, msg='FLU: gravity reads +z at rest')
 
     def test_09b_gcs_url_reaches_a_ground_station_on_14550(self):
         """gcs_url:=udp://@127.0.0.1, as a QGroundControl user writes it: the vehicle's stream

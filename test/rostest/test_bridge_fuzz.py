@@ -72,8 +72,10 @@ class BridgeFuzzTest(OffboardTestCase):
         self.assertTrue(during, 'no state published during %.0f s of fuzz: the bridge hangs' % took)
         self.assertTrue(all(s.connected and not s.armed and s.mode == 'AUTO.LOITER' for s in during),
                         'states from hostile frames: %s' % sorted({(s.mode, s.armed, s.connected) for s in during}))
-        self.assertTrue(poses and max(abs(z) for z in poses) < 0.5,
-                        'a pose from a hostile frame: max |z| %.1f m' % max(abs(z) for z in poses))
+        # on the ground PX4 SITL's estimate reads 0.10-0.55 m up after a fresh start (reference/px4-sitl-
+        # measured.md, Turn 3, section 7); a pose decoded from a hostile frame would be anywhere
+        self.assertTrue(poses and max(abs(z) for z in poses) < 0.55 + 0.1,
+                        'a pose from a hostile frame: max |z| %.2f m' % max(abs(z) for z in poses))
         # a connection-time pull starved by the flood is tried again (a warning, "trying again"); it must
         # complete, and nothing else may fail
         failed = [line for line in bridge_log.lines
