@@ -26,7 +26,7 @@ import rospy
 from rosgraph_msgs.msg import Log
 
 import benchmark
-from soak import junk_for_bridge  # bench/soak.py: junk that never says what would end a hover
+from soak_stack import junk_for_bridge  # junk that never says what would end a hover
 from offboard_py.testing import mavlink_fuzz, ports
 
 BAR_P99_MS = 55.0

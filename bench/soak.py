@@ -17,9 +17,7 @@ sources the workspace).
 """
 
 import argparse
-import json
 import os
-import platform
 import random
 import signal
 import socket
@@ -28,17 +26,15 @@ import sys
 import tempfile
 import time
 
-from pymavlink.dialects.v10 import common as mavlink1
-
-from offboard_py import px4_modes
 from offboard_py.tools import soak_rules as soak
 from offboard_py.tools.demo import launch_failure
-from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC
-from offboard_py.dialect import mavlink as mavlink2
 from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
 from offboard_py.testing import mavlink_fuzz, ports
-from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import soak_report  # noqa: E402  (bench/ is not a package)
+import soak_stack  # noqa: E402
 
 DEFAULT_SEED = 17
 DEFAULT_INSTANCE = 38  # ports.py: 38 and 39 are for runs by hand
@@ -56,102 +52,7 @@ MAX_CLOCK_LAG_S = 0.5       # as the rostests' clock guard: half of COM_OF_LOSS_
 MASTER_TIMEOUT_S = 30.0     # wall s
 CONTROL_TIMEOUT_S = 2.0     # wall s for the relay's answer
 STOP_TIMEOUT_S = 60.0       # wall s for roslaunch to stop its nodes
-ROLES = (('sim', b'sim_px4.py'), ('bridge', b'mavros_bridge.py'), ('node', b'offb_node.py'))
 ROLE_ORDER = ('node', 'bridge', 'sim')
-
-
-# --- the stack's processes --------------------------------------------------------------------
-
-def stack_processes(launch_pid):
-    """{role: pid} of the node, the bridge and the simulator: roslaunch's children (each node
-    runs in a session of its own, so the parent is what ties them to this launch)."""
-    found = {}
-    for pid in filter(str.isdigit, os.listdir('/proc')):
-        try:
-            with open('/proc/%s/stat' % pid, 'rb') as f:
-                fields = f.read().rsplit(b')', 1)[1].split()
-            if int(fields[1]) != launch_pid or fields[0] == b'Z':
-                continue
-            with open('/proc/%s/cmdline' % pid, 'rb') as f:
-                cmd = f.read()
-        except (OSError, IndexError, ValueError):
-            continue
-        role = next((r for r, key in ROLES if key in cmd), None)
-        if role:
-            found[role] = int(pid)
-    return found
-
-
-def rss_mb(pid):
-    try:
-        with open('/proc/%d/status' % pid) as f:
-            for line in f:
-                if line.startswith('VmRSS:'):
-                    return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return None
-
-
-# --- junk ------------------------------------------------------------------------------------
-
-def junk_for_bridge(rng, count, target):
-    """What the bridge must drop or ignore (test_bridge_fuzz.py's kinds): the vehicle's lies with bad
-    CRCs or cut short, the same from other systems, another component's HEARTBEAT, bad enums, NaN."""
-    nan = float('nan')
-    quad, px4 = mavlink2.MAV_TYPE_QUADROTOR, mavlink2.MAV_AUTOPILOT_PX4
-    armed_offboard = mavlink2.MAV_MODE_FLAG_SAFETY_ARMED | mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-    vehicle = mavlink2.MAVLink(None, srcSystem=target, srcComponent=1)
-    camera = mavlink2.MAVLink(None, srcSystem=target, srcComponent=mavlink2.MAV_COMP_ID_CAMERA)
-    other = mavlink2.MAVLink(None, srcSystem=42, srcComponent=1)
-    other_v1 = mavlink1.MAVLink(None, srcSystem=43, srcComponent=1)
-    lies = [lambda m: m.heartbeat_encode(quad, px4, armed_offboard, px4_modes.encode('AUTO.LAND'),
-                                         mavlink2.MAV_STATE_ACTIVE),
-            lambda m: m.local_position_ned_encode(1000, 0, 0, -50, 0, 0, 0),
-            lambda m: m.extended_sys_state_encode(mavlink2.MAV_VTOL_STATE_UNDEFINED,
-                                                  mavlink2.MAV_LANDED_STATE_ON_GROUND)]
-    return mavlink_fuzz.hostile_datagrams(
-        rng, count, corruptible=[lie(vehicle).pack(vehicle) for lie in lies],
-        ignorable=[lie(other).pack(other) for lie in lies]
-        + [m.heartbeat_encode(quad, px4, armed_offboard, px4_modes.encode('AUTO.LAND'),
-                              mavlink2.MAV_STATE_ACTIVE).pack(m) for m in (camera, other_v1)],
-        refused=[other.local_position_ned_encode(1000, nan, nan, nan, nan, nan, nan).pack(other),
-                 camera.heartbeat_encode(255, 255, 255, 0xFFFFFFFF, 255).pack(camera)])
-
-
-def junk_for_sim(rng, count, target):
-    """What PX4 must drop or refuse (test/sim/test_fuzz.py's kinds): commands that would end the
-    flight with bad CRCs or cut short, the same for other systems, bad modes, NaN and out-of-range
-    commands, setpoints and parameters. Nothing here may change the hover."""
-    v2 = mavlink2.MAVLink(None, srcSystem=200, srcComponent=1)
-    v1 = mavlink1.MAVLink(None, srcSystem=201, srcComponent=1)
-    nan, inf = float('nan'), float('inf')
-    arm, set_mode = mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, mavlink2.MAV_CMD_DO_SET_MODE
-    custom, local_ned = mavlink2.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mavlink2.MAV_FRAME_LOCAL_NED
-    real32 = mavlink2.MAV_PARAM_TYPE_REAL32
-    land = px4_modes.encode('AUTO.LAND')
-    ending = [v2.command_long_encode(target, 1, arm, 0, 0, ARM_DISARM_FORCE_MAGIC, 0, 0, 0, 0, 0),  # force disarm
-              v2.set_mode_encode(target, custom, land),
-              v2.command_long_encode(target, 1, mavlink2.MAV_CMD_NAV_LAND, 0, 0, 0, 0, 0, 0, 0, 0),
-              v2.param_set_encode(target, 1, b'COM_OF_LOSS_T', 0.1, real32)]
-    other_system = [v2.command_long_encode(42, 1, arm, 0, 0, ARM_DISARM_FORCE_MAGIC, 0, 0, 0, 0, 0),
-                    v2.set_mode_encode(42, custom, land)]
-    other_v1 = [v1.command_long_encode(43, 1, arm, 0, 0, ARM_DISARM_FORCE_MAGIC, 0, 0, 0, 0, 0)]
-    refused = [v2.set_mode_encode(target, custom, px4_modes.join(99, 0)),
-               v2.command_long_encode(target, 1, set_mode, 0, nan, nan, nan, 0, 0, 0, 0),
-               v2.command_long_encode(target, 1, arm, 0, nan, 0, 0, 0, 0, 0, 0),
-               v2.param_set_encode(target, 1, b'COM_OF_LOSS_T', nan, real32),
-               v2.param_set_encode(target, 1, b'COM_OF_LOSS_T', 1e9, real32),
-               v2.set_position_target_local_ned_encode(0, target, 1, 99, POSITION_AND_YAW,
-                                                       0, 0, -8, 0, 0, 0, 0, 0, 0, 0, 0),
-               v2.set_position_target_local_ned_encode(0, target, 1, local_ned, POSITION_AND_YAW,
-                                                       nan, nan, nan, 0, 0, 0, 0, 0, 0, nan, 0),
-               v2.set_position_target_local_ned_encode(0, target, 1, local_ned, POSITION_AND_YAW,
-                                                       0, 0, inf, 0, 0, 0, 0, 0, 0, 0, 0)]
-    return mavlink_fuzz.hostile_datagrams(
-        rng, count, corruptible=[m.pack(v2) for m in ending],
-        ignorable=[m.pack(v2) for m in other_system] + [m.pack(v1) for m in other_v1],
-        refused=[m.pack(v2) for m in refused])
 
 
 # --- the run ---------------------------------------------------------------------------------
@@ -253,8 +154,8 @@ class Soak:
     # what is watched every turn of the loop
 
     def sample(self, t):
-        for role, pid in stack_processes(self.launch.pid).items():
-            self.rss_samples.append((t, role, pid, rss_mb(pid)))
+        for role, pid in soak_stack.stack_processes(self.launch.pid).items():
+            self.rss_samples.append((t, role, pid, soak_stack.rss_mb(pid)))
 
     def minute_line(self, t):
         latest = {}
@@ -301,7 +202,7 @@ class Soak:
             watch.error = self.relay('drop %g %g both' % (fault.drop, fault.seconds))
         elif k in (soak.BRIDGE_KILL, soak.SIM_KILL):
             role = 'bridge' if k == soak.BRIDGE_KILL else 'sim'
-            pid = stack_processes(self.launch.pid).get(role)
+            pid = soak_stack.stack_processes(self.launch.pid).get(role)
             if pid is None:
                 watch.error = 'no %s process to kill' % role
                 return None
@@ -311,9 +212,9 @@ class Soak:
             target = ports.system_id(self.instance)
             rng = random.Random(fault.seed)
             if k == soak.JUNK_BRIDGE:
-                port, junk = ports.extra_port(self.instance, 2), junk_for_bridge(rng, fault.datagrams, target)
+                port, junk = ports.extra_port(self.instance, 2), soak_stack.junk_for_bridge(rng, fault.datagrams, target)
             else:
-                port, junk = ports.fcu_port(self.instance), junk_for_sim(rng, fault.datagrams, target)
+                port, junk = ports.fcu_port(self.instance), soak_stack.junk_for_sim(rng, fault.datagrams, target)
             flood = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             try:
                 mavlink_fuzz.send_paced(flood, ('127.0.0.1', port), junk)
@@ -403,7 +304,7 @@ class Soak:
         if watch.end_s is None:
             if self.killed is not None:
                 role, old_pid = self.killed
-                pid = stack_processes(self.launch.pid).get(role)
+                pid = soak_stack.stack_processes(self.launch.pid).get(role)
                 if pid is not None and pid != old_pid:
                     watch.end(t)
                     print('    %s back (pid %d) %.1f s after the kill' % (role, pid, t - watch.start_s), flush=True)
@@ -420,152 +321,6 @@ class Soak:
             watch.error = 'not back in hover within %.0f s of its end (now %s)' % (watch.bound_s,
                                                                                    self.describe_now(t))
             raise Stop('fault %d (%s) %s' % (watch.fault.index, watch.fault.what, watch.error), counted=True)
-
-
-# --- the report ------------------------------------------------------------------------------
-
-def plot(run, path):
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    with run.monitor.lock:
-        poses, states = list(run.monitor.poses), list(run.monitor.states)
-    watches = run.monitor.watches
-    fig, (ax_z, ax_mode, ax_rss) = plt.subplots(3, 1, figsize=(12, 9), dpi=100, sharex=True,
-                                               gridspec_kw={'height_ratios': [3, 2, 2]})
-
-    def minutes(t):
-        return t / 60.0
-    ax_z.axhspan(soak.TARGET_Z_M - soak.RECOVERY_TOLERANCE_M, soak.TARGET_Z_M + soak.RECOVERY_TOLERANCE_M,
-                 color='tab:green', alpha=0.15, label='2 m +- %.1f m' % soak.RECOVERY_TOLERANCE_M)
-    xs, zs = [], []
-    for i, (t, z) in enumerate(poses):  # no line across a gap in the poses (a bridge restarting)
-        if i and t - poses[i - 1][0] > 1.0:
-            xs.append(float('nan'))
-            zs.append(float('nan'))
-        xs.append(minutes(t))
-        zs.append(z)
-    ax_z.plot(xs, zs, color='tab:blue', lw=0.8, label='altitude z (ENU)')
-    top = max([z for _, z in poses] + [2.5])
-    for w in watches:
-        end = w.end_s if w.end_s is not None else w.start_s
-        for ax in (ax_z, ax_mode):
-            ax.axvspan(minutes(w.start_s), minutes(max(end, w.start_s + 1.0)), color='tab:red', alpha=0.25)
-            if w.recovered_s is not None:
-                ax.axvline(minutes(w.recovered_s), color='tab:green', lw=0.8, ls=':')
-        ax_z.text(minutes(w.start_s), top * 1.02, '%d %s' % (w.fault.index, w.fault.kind), rotation=90,
-                  va='bottom', ha='right', fontsize=7)
-    ax_z.set_ylim(min([-0.1] + [z for _, z in poses]), top * 1.45)
-    ax_z.set_ylabel('altitude (m)')
-    ax_z.legend(loc='lower left', fontsize=8)
-    ax_z.set_title('soak: %g simulated min at %gx, seed %d; faults shaded red, recoveries dotted green'
-                   % (run.args.minutes, run.args.speed, run.args.seed))
-    modes = ['no FCU'] + sorted({m or 'unknown' for _, c, m, _ in states if c and m != 'OFFBOARD'}) + ['OFFBOARD']
-
-    def level(connected, mode):
-        return modes.index((mode or 'unknown') if connected else 'no FCU')
-    if states:
-        last = max(states[-1][0], poses[-1][0] if poses else 0.0)
-        ts = [minutes(t) for t, *_ in states] + [minutes(last)]
-        ys = [level(c, m) for _, c, m, _ in states]
-        ax_mode.step(ts, ys + ys[-1:], where='post', color='tab:purple', lw=1, label='mode')
-        armed = [(minutes(t), 1 if a and c else 0) for t, c, _, a in states]
-        ax_mode.step([a for a, _ in armed] + ts[-1:], [len(modes) - 0.6 + 0.3 * b for _, b in armed] + [
-            len(modes) - 0.6 + 0.3 * armed[-1][1]], where='post', color='tab:orange', lw=1, label='armed (high)')
-    ax_mode.set_yticks(list(range(len(modes))) + [len(modes) - 0.6, len(modes) - 0.3])
-    ax_mode.set_yticklabels(modes + ['disarmed', 'armed'], fontsize=8)
-    ax_mode.set_ylim(-0.5, len(modes) + 0.1)
-    ax_mode.legend(loc='lower left', fontsize=8)
-    colours = {'node': 'tab:blue', 'bridge': 'tab:orange', 'sim': 'tab:green'}
-    by_process = {}
-    for t, role, pid, rss in run.rss_samples:
-        if rss is not None:
-            by_process.setdefault((role, pid), []).append((minutes(t), rss))
-    labelled = set()
-    for (role, pid), points in by_process.items():
-        ax_rss.plot([p[0] for p in points], [p[1] for p in points], color=colours[role], lw=1,
-                    label=None if role in labelled else role)
-        labelled.add(role)
-    ax_rss.set_ylabel('RSS (MB)')
-    ax_rss.set_xlabel('simulated time (min)')
-    ax_rss.legend(loc='upper left', fontsize=8)
-    for ax in (ax_z, ax_mode, ax_rss):
-        ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-
-
-def report(run, stopped, wall_s):
-    """Print the tables, write the JSON and the PNG; return the reasons the soak failed."""
-    m = run.monitor
-    rows = soak.rss_growth(run.rss_samples)
-    reasons = soak.verdict(m.watches, rows, m.lapses, stopped, m.startup)
-    if m.startup.recovered_s is not None:
-        print('\nhover after the start-up at %.1f s' % m.startup.recovered_s)
-    print('\nfaults (simulated s since the launch; recovered: connected, OFFBOARD, armed, 2 m +- %.1f m, '
-          'within %.0f s of the fault\'s end):' % (soak.RECOVERY_TOLERANCE_M, soak.RECOVERY_BOUND_S))
-    print('\n'.join(soak.fault_table(m.watches)))
-    print('\nRSS per process (growth after its first minute; a respawned process is a new one):')
-    print('\n'.join(soak.rss_table(rows)))
-    if m.lapses:
-        print('\nhover lost with no fault under way: %s' % ', '.join('%.1f s (%s)' % lapse for lapse in m.lapses))
-    if run.args.speed != 1.0:
-        print('\nclock: the soak\'s own ROS time (/clock) trailed the vehicles\' clock by at most %.2f s (at %s s); '
-              'more than %.1f s for %.1f simulated s in all' % (run.worst_lag_s, _fmt(run.worst_lag_at_s),
-                                                                MAX_CLOCK_LAG_S, run.lagging_s))
-    print('wall time %.0f s for %.1f simulated min at %gx' % (wall_s, (run.now() if run.t0 is not None else 0.0) / 60.0,
-                                                             run.args.speed))
-    png = os.path.splitext(run.args.out)[0] + '.png'
-    result = {
-        'command': ' '.join(sys.argv),
-        'machine': {'cores': os.cpu_count(), 'python': platform.python_version(), 'kernel': platform.release()},
-        'config': {'minutes': run.args.minutes, 'speed': run.args.speed, 'seed': run.args.seed,
-                   'instance': run.args.instance, 'conn_timeout_s': CONN_TIMEOUT_S,
-                   'recovery_bound_s': soak.RECOVERY_BOUND_S, 'recovery_tolerance_m': soak.RECOVERY_TOLERANCE_M,
-                   'settle_s': soak.SETTLE_S, 'rss_limit_mb': soak.RSS_LIMIT_MB,
-                   'startup_bound_s': run.startup_bound_s, 'respawn_bound_s': run.respawn_bound_s},
-        'schedule': [f.as_dict() for f in run.schedule],
-        'startup': m.startup.as_dict(),
-        'faults': [w.as_dict() for w in m.watches],
-        'lapses': m.lapses,
-        'rss': rows,
-        'rss_samples': run.rss_samples,
-        'minute_lines': run.minute_lines,
-        'clock': {'worst_lag_s': run.worst_lag_s, 'worst_lag_at_s': run.worst_lag_at_s,
-                  'lagging_s': run.lagging_s, 'lag_limit_s': MAX_CLOCK_LAG_S},
-        'altitude_1hz': _every(m.poses, 1.0),
-        'states': m.states,
-        'wall_s': wall_s,
-        'simulated_s': run.now() if run.t0 is not None else 0.0,
-        'passed': not reasons,
-        'reasons': reasons,
-        'png': os.path.abspath(png),
-        'launch_log': os.path.abspath(run.args.log),
-    }
-    with open(run.args.out, 'w') as out:
-        json.dump(result, out, indent=1)
-    try:
-        plot(run, png)
-        print('PNG: %s' % os.path.abspath(png))
-    except Exception as err:  # the figures are in the JSON; a plot failure must not hide the verdict
-        print('no PNG (%s: %s)' % (type(err).__name__, err))
-    print('JSON: %s' % os.path.abspath(run.args.out))
-    return reasons
-
-
-def _fmt(value, digits=1):
-    return '-' if value is None else '%.*f' % (digits, value)
-
-
-def _every(points, period_s):
-    out, next_t = [], None
-    for t, z in points:
-        if next_t is None or t >= next_t:
-            out.append((round(t, 2), round(z, 3)))
-            next_t = t + period_s
-    return out
 
 
 # --- the command -----------------------------------------------------------------------------
@@ -663,7 +418,7 @@ def main(argv=None):
         if run.launch is not None and run.launch.poll() is None:
             run.sample(run.now())
         run.stop()
-    reasons = report(run, stopped, wall_s)
+    reasons = soak_report.report(run, stopped, wall_s, CONN_TIMEOUT_S, MAX_CLOCK_LAG_S)
     print('ROS logs of the nodes: %s' % os.path.join(logdir, 'ros'))
     if reasons:
         print('\nSOAK FAILED:\n  ' + '\n  '.join(reasons))
