@@ -906,3 +906,11 @@ def test_timers_wait_for_a_wake_up_within_their_slack_and_keep_their_rate():
     assert len(runs) == 10 and task[1] == pytest.approx(due_s + 1.0), 'late runs, the same schedule'
     rig.bridge.run_periodic(due_s + 0.99)
     assert len(runs) == 10, 'not before its time'
+
+
+def test_a_plugin_offers_what_it_has_through_provide_only_under_known_names():
+    assert Rig(sys_status.SysStatus).bridge.commands is None, 'nothing until the command plugin is loaded'
+    rig = Rig(command.Command, sys_status.SysStatus)
+    assert rig.bridge.commands is rig.plugin.waiter
+    with pytest.raises(ValueError, match="provide\\('link'\\): not one of clock_offset, commands"):
+        rig.bridge.provide('link', object())

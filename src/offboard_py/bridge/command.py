@@ -85,7 +85,7 @@ class Command:
     def __init__(self, bridge):
         self.bridge = bridge
         self.waiter = CommandWaiter(clock=bridge.monotonic_s)  # the throttle on ROS time, as mavros's
-        bridge.commands = self.waiter  # for plugins that send a command themselves (Bridge.commands)
+        bridge.provide('commands', self.waiter)  # for plugins that send a command themselves
         self.timeout_s = bridge.cfg['cmd/command_ack_timeout']
         bridge.on('COMMAND_ACK', self.waiter.on_ack)
         self.services = [

@@ -11,7 +11,8 @@ A plugin is a class built with the Bridge and using only this interface:
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
 - time and connection: `monotonic_s()`, `every`, `after_connect`, `retry_while_connected`
   (bridge/scheduler.py holds the timers and the retry policy), `on_connection`, `connected`;
-- `diagnostic(name, status)`: status() -> (level, message, [(key, value)]) for /diagnostics.
+- `diagnostic(name, status)`: status() -> (level, message, [(key, value)]) for /diagnostics;
+- `provide(name, what)`: what a plugin offers the others (`clock_offset`, `commands`).
 One thread receives MAVLink and runs the handlers and the periodic work (`start()`); service
 calls run in other threads and wait on events that thread sets. This module opens no
 socket and reads no ROS parameter: node.py does that.
@@ -64,8 +65,9 @@ class Bridge:
         self.connected = False
         self._connection_listeners = []
         self.attitude = Attitude()
-        self.clock_offset = None  # the sys_time plugin, when loaded: stamp_ns(fcu_ns)
-        self.commands = None  # the command plugin's COMMAND_ACK waiter, when loaded: expect(cmd)
+        # what one plugin offers the others (provide()): nothing until the plugin that offers it is loaded
+        self.clock_offset = None  # sys_time's: stamp_ns(fcu_ns), read by fcu_stamp_*
+        self.commands = None  # command's COMMAND_ACK waiter: expect(cmd) before sending a command itself
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         # registered before any plugin's handler, so readers see this message's attitude
         self.on_raw('ATTITUDE_QUATERNION', self.attitude.update)
@@ -188,6 +190,15 @@ class Bridge:
     def run_periodic(self, now_s):
         """Run the periodic callbacks that are due at now_s (the receive loop's clock)."""
         self.scheduler.run_periodic(now_s)
+
+    PROVIDED = ('clock_offset', 'commands')
+
+    def provide(self, name, what):
+        """A plugin offers `what` to the others under `name` (one of PROVIDED): the one way a plugin
+        reaches another, so the bridge's attributes are its own."""
+        if name not in self.PROVIDED:
+            raise ValueError('provide(%r): not one of %s' % (name, ', '.join(self.PROVIDED)))
+        setattr(self, name, what)
 
     def diagnostic(self, name, status):
         """Add a status to /diagnostics ("mavros: <name>"): status() -> (level, message, [(key, value)]),

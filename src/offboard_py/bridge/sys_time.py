@@ -103,7 +103,7 @@ class SysTime:
         self.mode = cfg['time/timesync_mode']
         self.source = cfg['time/time_ref_source']
         self.filter = TimesyncFilter(**cfg['time/filter'])
-        bridge.clock_offset = self  # what Bridge.fcu_stamp_* read
+        bridge.provide('clock_offset', self)  # what Bridge.fcu_stamp_* read
         self.time_ref_pub = bridge.publisher('~time_reference', TimeReference)
         self.status_pub = bridge.publisher('~timesync_status', TimesyncStatus)
         bridge.on('SYSTEM_TIME', self._on_system_time)
