@@ -20,7 +20,8 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim.commander import Commander
 from offboard_py.sim.navigator import Navigator
-from offboard_py.sim.vehicle import Estimator, VehicleModel
+from offboard_py.sim.estimator import Estimator
+from offboard_py.sim.vehicle import VehicleModel
 
 NAN3 = (float('nan'),) * 3
 HOVER_THRUST = 0.5  # normalised thrust that holds the vehicle (PX4's MPC_THR_HOVER default)

@@ -20,19 +20,19 @@ second-order response, all PIPELINE_DELAY_S after the position controller asked 
 at 1 s). The body rates are the model's; the gyro and accelerometer add SIH's noise (sim.sensors).
 An optional gust (a seeded Ornstein-Uhlenbeck acceleration) makes the vehicle wander in hover
 as PX4 SITL's does; the estimate the controller flies and telemetry reports carries a little
-white noise (`Estimator`). Both are off for an ideal vehicle.
+white noise (sim.estimator). Both are off for an ideal vehicle.
 The ground is flat at z = `ground_z` (local NED): PX4's estimate on the ground reads a little
-above its origin (NED z negative). A land detector in PX4's three stages (ground contact, maybe landed, landed) with
-its thrust thresholds says `landed`.
+above its origin (NED z negative). PX4's land detector (sim.land_detector) says `landed`.
 
 All in local NED (m, m/s), yaw in rad from north. Time is passed in; nothing is read
 from a clock. No MAVLink, no ROS.
 """
 
 import math
-import random
 from collections import deque, namedtuple
 
+from offboard_py.sim.estimator import Estimator, ground_start
+from offboard_py.sim.land_detector import LandDetector
 from offboard_py.sim.sensors import Imu
 
 GRAVITY = 9.80665
@@ -46,24 +46,7 @@ YAW_P = 2.8               # MC_YAW_P
 YAW_RATE_MAX = math.radians(200.0)  # MC_YAWRATE_MAX
 NAN = float('nan')
 TILT_LIMIT_SLEW = 0.2     # rad/s: how fast PX4 lets the tilt limit change (_tilt_limit_slew_rate)
-# PX4's MulticopterLandDetector: hysteresis of its stages and its thrust thresholds
-GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
-LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
-MINIMAL_THRUST_FRACTION = 0.3  # ... "minimal thrust" (maybe landed)
 TAKEOFF_TRIGGER_M = 0.2        # a position setpoint this far above asks for a takeoff (PX4)
-# PX4 SITL's local position on the ground after a fresh start (reference/px4-sitl-measured.md, "Turn 3
-# recordings", section 7: eight starts): z reads 0.1-0.55 m above the origin and takes a few values
-# that repeat, since SIH seeds its noise; a vehicle here takes the start its seed picks (seed 1: start 1)
-GROUND_STARTS = ((-0.158, 0.081, -0.179), (0.214, -0.343, -0.097), (-0.122, 0.079, -0.175),
-                 (-0.191, 0.095, -0.547), (-0.127, 0.081, -0.174), (0.054, -0.216, -0.507),
-                 (0.055, -0.215, -0.507), (0.053, -0.216, -0.507))
-# at rest on the ground, disarmed, the estimate is steadier than in flight (section 7: z within 0.01 m over 5 s)
-RESTING_NOISE_SCALE = 0.15
-# hover wander and estimator noise of PX4 SITL's size (px4-sitl-measured.md: z +-0.1 m, xy up to 0.6 m)
-GUST_XY, GUST_Z, GUST_TAU_S = 0.5, 0.25, 4.0   # m/s^2 standard deviation, correlation time
-GUST_SMOOTH_S = 2.0                            # s, a first-order low-pass on it
-NOISE_POSITION_XY, NOISE_POSITION_Z, NOISE_VELOCITY = 0.02, 0.01, 0.03  # m, m, m/s (1 sigma)
-
 Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max')
 Setpoint.__doc__ = """What a flight mode asks of the controller. Vectors are NED 3-tuples whose NaN
 components are not controlled; yaw/yaw_rate NaN means "keep". The *_max fields, when not
@@ -122,55 +105,6 @@ def quaternion_from_thrust(acc_ned, yaw):
     return ((xb[1] - yb[0]) / s, (zb[0] + xb[2]) / s, (zb[1] + yb[2]) / s, 0.25 * s)
 
 
-def ground_start(seed):
-    """Where PX4 SITL's estimate puts a vehicle resting on the ground after a fresh start
-    (local NED, m): one of section 7's starts, picked by the seed."""
-    try:
-        index = int(seed) - 1
-    except (TypeError, ValueError):
-        index = sum(ord(c) for c in str(seed))
-    return GROUND_STARTS[index % len(GROUND_STARTS)]
-
-
-class Estimator:
-    """What PX4's estimator adds to the truth: white noise on position and velocity, and the gust
-    that makes the vehicle wander. Seeded: the same seed gives the same flight. `ideal` is silent."""
-
-    def __init__(self, seed=1, ideal=False):
-        self.ideal = ideal
-        self.seed = seed
-        self.rng = random.Random(seed)
-        self._raw_gust = [0.0, 0.0, 0.0]
-        self.gust = [0.0, 0.0, 0.0]
-
-    def step_gust(self, dt):
-        if self.ideal:
-            return self.gust
-        decay = math.exp(-dt / GUST_TAU_S)
-        spread = math.sqrt(1.0 - decay * decay)
-        g, raw, gust = self.rng.gauss, self._raw_gust, self.gust
-        raw[0] = decay * raw[0] + spread * GUST_XY * g(0.0, 1.0)
-        raw[1] = decay * raw[1] + spread * GUST_XY * g(0.0, 1.0)
-        raw[2] = decay * raw[2] + spread * GUST_Z * g(0.0, 1.0)
-        # smoothed: PX4 SITL's wander is slow (the estimate drifting, SIH has no wind), and its
-        # body rates in hover are SIH's gyro noise with next to no motion under it (section 2)
-        smooth = min(1.0, dt / GUST_SMOOTH_S)
-        for i in (0, 1, 2):
-            gust[i] += smooth * (raw[i] - gust[i])
-        return gust
-
-    def measure(self, position, velocity, resting=False):
-        if self.ideal:
-            return tuple(position), tuple(velocity)
-        g = self.rng.gauss
-        k = RESTING_NOISE_SCALE if resting else 1.0
-        pos = (position[0] + g(0.0, k * NOISE_POSITION_XY), position[1] + g(0.0, k * NOISE_POSITION_XY),
-               position[2] + g(0.0, k * NOISE_POSITION_Z))
-        vel = (velocity[0] + g(0.0, k * NOISE_VELOCITY), velocity[1] + g(0.0, k * NOISE_VELOCITY),
-               velocity[2] + g(0.0, k * NOISE_VELOCITY))
-        return pos, vel
-
-
 class VehicleModel:
     """State and dynamics of one multicopter. `params` is a ParamStore (read every step).
     `position`/`velocity` are the truth; `estimate` is what PX4 knows (and reports)."""
@@ -208,8 +142,7 @@ class VehicleModel:
         self.ground_contact = self.position[2] >= ground_z
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
-        self._stages = {}  # land-detector stage -> [state, since when its condition holds]
-        self._reset_stages(self.landed)
+        self.land_detector = LandDetector(self.landed)
         self.estimate = (tuple(self.position), (0.0, 0.0, 0.0))
         self._attitude = None  # cached for the current step: telemetry asks more often than we step
         # what the controller tracks, for telemetry (POSITION_TARGET_LOCAL_NED, ATTITUDE_TARGET):
@@ -468,46 +401,15 @@ class VehicleModel:
             self.ground_contact, self.contact_since_s = False, None
         return False
 
-    def _reset_stages(self, state):
-        self._stages = {name: [state, None] for name in ('contact', 'maybe', 'landed')}
-
-    def _stage(self, name, condition, hold_s, now_s):
-        """A land-detector stage with PX4's hysteresis: it becomes true once `condition` held for
-        hold_s, and false at once when the condition fails."""
-        stage = self._stages[name]
-        if not condition:
-            stage[0], stage[1] = False, None
-        elif not stage[0]:
-            if stage[1] is None:
-                stage[1] = now_s
-            stage[0] = now_s - stage[1] >= hold_s
-        return stage[0]
-
     def _land_detector(self, sp, now_s):
-        """PX4's MulticopterLandDetector: ground contact, maybe landed, landed."""
-        if not self.motors_on or self.takeoff_state in ('spoolup', 'ready'):
-            # disarmed or idling on the ground: landed while resting on it
-            self.landed = self.ground_contact and (self.landed or now_s - self.contact_since_s >= LANDED_S)
-            self._reset_stages(self.landed)
-            return
-        p = self.params
-        vel = self.estimate[1]
-        hover, thr_min = p['MPC_THR_HOVER'], p['MPC_THR_MIN']
-        tx, ty, tz = self.thrust_setpoint
-        thrust = math.sqrt(tx * tx + ty * ty + tz * tz)
-        low_thrust = thrust <= thr_min + (hover - thr_min) * LOW_THRUST_FRACTION
-        minimal_thrust = thrust <= thr_min + (hover - thr_min) * MINIMAL_THRUST_FRACTION
-        vz_sp = self.velocity_setpoint[2]
-        descending = vz_sp == vz_sp and vz_sp >= 1.1 * p['LNDMC_Z_VEL_MAX']
-        still = abs(vel[2]) < p['LNDMC_Z_VEL_MAX'] and math.hypot(vel[0], vel[1]) < p['LNDMC_XY_VEL_MAX']
-        contact = self._stage('contact', (low_thrust or (descending and still)) and still, GROUND_CONTACT_S, now_s)
-        maybe = self._stage('maybe', contact and minimal_thrust, MAYBE_LANDED_S, now_s)
-        self.landed = self._stage('landed', maybe, LANDED_S, now_s)
+        """PX4's MulticopterLandDetector (sim.land_detector) on this step's state."""
+        idle = not self.motors_on or self.takeoff_state in ('spoolup', 'ready')
+        self.landed = self.land_detector.update(self, idle, now_s)
 
     @property
     def maybe_landed(self):
         """The land detector's maybe-landed stage (or landed): what lets PX4's commander disarm."""
-        return self.landed or self._stages['maybe'][0]
+        return self.landed or self.land_detector.maybe_landed
 
     # -- derived quantities ---------------------------------------------------------------
 

@@ -1,0 +1,57 @@
+"""PX4's MulticopterLandDetector for the simulated vehicle: ground contact, maybe landed, landed,
+each a stage with PX4's hysteresis (true once its condition held for its time, false at once when it
+fails), on the thrust the controller asks for and the estimated velocity. Disarmed or idling on the
+ground (spool-up, waiting for a takeoff) the vehicle is landed while it rests on the ground.
+"""
+
+import math
+
+# hysteresis of the stages and the thrust thresholds
+GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
+LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
+MINIMAL_THRUST_FRACTION = 0.3  # ... "minimal thrust" (maybe landed)
+
+
+class LandDetector:
+    def __init__(self, landed):
+        self.landed = landed
+        self._reset_stages(landed)
+
+    @property
+    def maybe_landed(self):
+        return self._stages['maybe'][0]
+
+    def _reset_stages(self, state):
+        self._stages = {name: [state, None] for name in ('contact', 'maybe', 'landed')}
+
+    def _stage(self, name, condition, hold_s, now_s):
+        stage = self._stages[name]
+        if not condition:
+            stage[0], stage[1] = False, None
+        elif not stage[0]:
+            if stage[1] is None:
+                stage[1] = now_s
+            stage[0] = now_s - stage[1] >= hold_s
+        return stage[0]
+
+    def update(self, vehicle, idle, now_s):
+        """Landed or not after this step of `vehicle` (a VehicleModel); `idle`: disarmed or idling on
+        the ground."""
+        if idle:
+            self.landed = vehicle.ground_contact and (self.landed or now_s - vehicle.contact_since_s >= LANDED_S)
+            self._reset_stages(self.landed)
+            return self.landed
+        p = vehicle.params
+        vel = vehicle.estimate[1]
+        hover, thr_min = p['MPC_THR_HOVER'], p['MPC_THR_MIN']
+        tx, ty, tz = vehicle.thrust_setpoint
+        thrust = math.sqrt(tx * tx + ty * ty + tz * tz)
+        low_thrust = thrust <= thr_min + (hover - thr_min) * LOW_THRUST_FRACTION
+        minimal_thrust = thrust <= thr_min + (hover - thr_min) * MINIMAL_THRUST_FRACTION
+        vz_sp = vehicle.velocity_setpoint[2]
+        descending = vz_sp == vz_sp and vz_sp >= 1.1 * p['LNDMC_Z_VEL_MAX']
+        still = abs(vel[2]) < p['LNDMC_Z_VEL_MAX'] and math.hypot(vel[0], vel[1]) < p['LNDMC_XY_VEL_MAX']
+        contact = self._stage('contact', (low_thrust or (descending and still)) and still, GROUND_CONTACT_S, now_s)
+        maybe = self._stage('maybe', contact and minimal_thrust, MAYBE_LANDED_S, now_s)
+        self.landed = self._stage('landed', maybe, LANDED_S, now_s)
+        return self.landed
