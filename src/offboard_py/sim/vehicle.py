@@ -1,6 +1,6 @@
 """Multicopter model of the simulated PX4: PX4's position control over SIH's airframe.
 
-Controller, as PX4's mc_pos_control (PositionControl, TakeoffHandling):
+Controller (sim.position_control), as PX4's mc_pos_control (PositionControl, TakeoffHandling):
 - position error -> velocity setpoint (MPC_XY_P, MPC_Z_P, plus the setpoint's feed-forward),
   limited by MPC_XY_VEL_MAX / MPC_Z_VEL_MAX_UP / _DN or the tighter limits a flight mode asks for;
 - velocity error -> acceleration setpoint by a PID (MPC_*_VEL_P_ACC, _I_ACC, _D_ACC) with PX4's
@@ -32,10 +32,11 @@ import math
 from collections import deque, namedtuple
 
 from offboard_py.sim.estimator import Estimator, ground_start
+from offboard_py.sim.flight_math import GRAVITY, NAN, clamp, is_set
 from offboard_py.sim.land_detector import LandDetector
+from offboard_py.sim.position_control import PositionControl
 from offboard_py.sim.sensors import Imu
 
-GRAVITY = 9.80665
 # PX4's attitude pipeline, fitted to the 30 m step (module docstring): from the position controller's
 # thrust setpoint to the attitude controller (estimator and controller rates, uORB), and the rate
 # loop with the rotors as a second-order response (natural frequency rad/s, damping ratio)
@@ -44,9 +45,6 @@ RATE_WN, RATE_ZETA = 16.0, 0.55
 ATTITUDE_SUBSTEP_S = 0.01  # the rate response is integrated in steps no longer than this
 YAW_P = 2.8               # MC_YAW_P
 YAW_RATE_MAX = math.radians(200.0)  # MC_YAWRATE_MAX
-NAN = float('nan')
-TILT_LIMIT_SLEW = 0.2     # rad/s: how fast PX4 lets the tilt limit change (_tilt_limit_slew_rate)
-TAKEOFF_TRIGGER_M = 0.2        # a position setpoint this far above asks for a takeoff (PX4)
 Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max')
 Setpoint.__doc__ = """What a flight mode asks of the controller. Vectors are NED 3-tuples whose NaN
 components are not controlled; yaw/yaw_rate NaN means "keep". The *_max fields, when not
@@ -62,21 +60,6 @@ def setpoint(position=(NAN, NAN, NAN), velocity=(NAN, NAN, NAN), acceleration=(N
 def hold(position, yaw):
     """Hover at `position` facing `yaw`."""
     return setpoint(position=position, yaw=yaw)
-
-
-def _clamp(value, low, high):
-    return low if value < low else high if value > high else value
-
-
-def _limit_xy(vx, vy, limit):
-    norm = math.hypot(vx, vy)
-    if norm > limit > 0.0:
-        return vx * limit / norm, vy * limit / norm
-    return (0.0, 0.0) if limit <= 0.0 else (vx, vy)
-
-
-def _is(value):
-    return value == value  # not NaN
 
 
 def quaternion_from_thrust(acc_ned, yaw):
@@ -133,150 +116,41 @@ class VehicleModel:
         self.gyro = (0.0, 0.0, 0.0)        # FRD, rad/s: the gyro (HIGHRES_IMU)
         self.motors_on = False
         self.motors_on_s = None
-        self.takeoff_state = 'disarmed'  # PX4's TakeoffHandling: disarmed, spoolup, ready, rampup, flight
-        self.ramp_vz = 0.0            # takeoff ramp: the climb-rate limit now (m/s, up positive)
-        self.integral = [0.0, 0.0, 0.0]
-        # PX4 limits the tilt to MPC_TILTMAX_LND until the takeoff is over, then lets the limit
-        # grow to MPC_TILTMAX_AIR at TILT_LIMIT_SLEW rad/s (MulticopterPositionControl)
-        self.tilt_limit = math.radians(params['MPC_TILTMAX_LND'])
+        self.control = PositionControl(params)  # PX4's mc_pos_control: what thrust the setpoint asks for
         self.ground_contact = self.position[2] >= ground_z
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
         self.land_detector = LandDetector(self.landed)
         self.estimate = (tuple(self.position), (0.0, 0.0, 0.0))
         self._attitude = None  # cached for the current step: telemetry asks more often than we step
-        # what the controller tracks, for telemetry (POSITION_TARGET_LOCAL_NED, ATTITUDE_TARGET):
-        # the setpoint flown, the velocity setpoint it gave (NaN where not controlled) and the
-        # commanded acceleration; None while the motors do not fly
+        # the setpoint flown (for telemetry; None while the motors do not fly) and the thrust asked for
         self.setpoint = None
-        self.velocity_setpoint = (NAN, NAN, NAN)
-        self.acceleration_setpoint = None
         self.thrust_setpoint = [0.0, 0.0, 0.0]
 
     # -- commands from the commander -----------------------------------------------------
 
     def start_motors(self, now_s):
         self.motors_on, self.motors_on_s = True, now_s
-        self.takeoff_state = 'spoolup' if self.landed else 'flight'
-        self.integral = [0.0, 0.0, 0.0]
+        self.control.arm(self.landed)
 
     def stop_motors(self):
-        self.motors_on, self.motors_on_s, self.takeoff_state = False, None, 'disarmed'
-        self.integral = [0.0, 0.0, 0.0]
+        self.motors_on, self.motors_on_s = False, None
+        self.control.disarm()
+
+    @property
+    def takeoff_state(self):
+        return self.control.takeoff_state
+
+    @property
+    def velocity_setpoint(self):
+        return self.control.velocity_setpoint
+
+    @property
+    def acceleration_setpoint(self):
+        return self.control.acceleration_setpoint
 
     def spooled_up(self, now_s):
         return self.motors_on and now_s - self.motors_on_s >= self.params['COM_SPOOLUP_TIME']
-
-    # -- PX4's takeoff handling --------------------------------------------------------------
-
-    def _update_takeoff(self, sp, now_s, dt, climb_speed):
-        p, state = self.params, self.takeoff_state
-        if state == 'spoolup' and self.spooled_up(now_s):
-            state = 'ready'
-        if state == 'ready':
-            z = self.estimate[0][2]
-            wants = ((_is(sp.position[2]) and sp.position[2] < z - TAKEOFF_TRIGGER_M)
-                     or (_is(sp.velocity[2]) and not _is(sp.position[2]) and sp.velocity[2] < -TAKEOFF_TRIGGER_M))
-            if wants:
-                state = 'rampup'
-                self.ramp_vz = -GRAVITY / p['MPC_Z_VEL_P_ACC']  # from zero thrust
-        if state == 'rampup':
-            ramp_s = p['MPC_TKO_RAMP_T']
-            if ramp_s > dt:
-                self.ramp_vz += (climb_speed + GRAVITY / p['MPC_Z_VEL_P_ACC']) * dt / ramp_s
-            else:
-                self.ramp_vz = climb_speed
-            if self.ramp_vz >= climb_speed:
-                state = 'flight'
-        if state == 'flight' and self.landed:
-            state = 'ready'
-        self.takeoff_state = state
-
-    # -- the controller ----------------------------------------------------------------------
-
-    def _velocity_setpoint(self, sp, pos):
-        p = self.params
-        position, velocity = sp.position, sp.velocity
-        xy_gain = p['MPC_XY_P']
-        vel_sp = [0.0, 0.0, 0.0]
-        controlled = [False, False, False]
-        for i in (0, 1, 2):
-            v = velocity[i]
-            target = position[i]
-            if target == target:  # not NaN: position control, with the setpoint's velocity as feed-forward
-                vel_sp[i] = (v if v == v else 0.0) + (xy_gain if i < 2 else p['MPC_Z_P']) * (target - pos[i])
-                controlled[i] = True
-            elif v == v:
-                vel_sp[i] = v
-                controlled[i] = True
-        xy_max = p['MPC_XY_VEL_MAX'] if sp.xy_speed_max is None else min(sp.xy_speed_max, p['MPC_XY_VEL_MAX'])
-        up_max = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
-        dn_max = p['MPC_Z_VEL_MAX_DN'] if sp.z_down_max is None else min(sp.z_down_max, p['MPC_Z_VEL_MAX_DN'])
-        if self.takeoff_state == 'rampup':
-            up_max = min(up_max, self.ramp_vz)  # negative early in the ramp: push down, no thrust
-        vel_sp[0], vel_sp[1] = _limit_xy(vel_sp[0], vel_sp[1], xy_max)
-        low = -up_max
-        vel_sp[2] = _clamp(vel_sp[2], low, max(dn_max, low))
-        self.velocity_setpoint = (vel_sp[0] if controlled[0] else NAN, vel_sp[1] if controlled[1] else NAN,
-                                  vel_sp[2] if controlled[2] else NAN)
-        return vel_sp, controlled
-
-    def _control(self, sp, dt):
-        """PX4's PositionControl: the normalised thrust vector (NED) for setpoint `sp`."""
-        p = self.params
-        pos, vel = self.estimate
-        vel_sp, controlled = self._velocity_setpoint(sp, pos)
-        xy_p, z_p = p['MPC_XY_VEL_P_ACC'], p['MPC_Z_VEL_P_ACC']
-        gains_i = (p['MPC_XY_VEL_I_ACC'], p['MPC_XY_VEL_I_ACC'], p['MPC_Z_VEL_I_ACC'])
-        gains_d = (p['MPC_XY_VEL_D_ACC'], p['MPC_XY_VEL_D_ACC'], p['MPC_Z_VEL_D_ACC'])
-        error = [vel_sp[0] - vel[0] if controlled[0] else 0.0, vel_sp[1] - vel[1] if controlled[1] else 0.0,
-                 vel_sp[2] - vel[2] if controlled[2] else 0.0]
-        acc = [0.0, 0.0, 0.0]
-        sp_acc, integral, achieved = sp.acceleration, self.integral, self.acceleration
-        for i in (0, 1, 2):
-            ff = sp_acc[i]
-            if ff != ff:
-                ff = 0.0
-            if controlled[i]:
-                acc[i] = ff + (xy_p if i < 2 else z_p) * error[i] + integral[i] - gains_d[i] * achieved[i]
-            else:
-                acc[i] = ff
-        # acceleration -> thrust (MPC_ACC_DECOUPLE: the vertical thrust holds the vertical acceleration)
-        hover, thr_min, thr_max = p['MPC_THR_HOVER'], p['MPC_THR_MIN'], p['MPC_THR_MAX']
-        if self.takeoff_state == 'rampup':
-            thr_min = 0.0  # PX4 ramps from zero thrust on takeoff
-        bx, by, bz = -acc[0], -acc[1], GRAVITY
-        norm = math.sqrt(bx * bx + by * by + bz * bz)
-        bx, by, bz = bx / norm, by / norm, bz / norm
-        wanted = p['MPC_TILTMAX_AIR'] if self.takeoff_state == 'flight' else p['MPC_TILTMAX_LND']
-        step = TILT_LIMIT_SLEW * dt
-        self.tilt_limit += _clamp(math.radians(wanted) - self.tilt_limit, -step, step)
-        tilt_max = self.tilt_limit
-        if math.acos(_clamp(bz, -1.0, 1.0)) > tilt_max:
-            horizontal = math.hypot(bx, by)
-            bx, by, bz = bx / horizontal * math.sin(tilt_max), by / horizontal * math.sin(tilt_max), math.cos(tilt_max)
-        collective = (acc[2] * hover / GRAVITY - hover) / bz
-        collective = min(collective, -thr_min)
-        thrust = [bx * collective, by * collective, bz * collective]
-        # saturation: vertical first, what is left for the horizontal
-        if thrust[2] < -thr_max:
-            thrust[2] = -thr_max
-        xy_room = math.sqrt(max(thr_max * thr_max - thrust[2] * thrust[2], 0.0))
-        thrust[0], thrust[1] = _limit_xy(thrust[0], thrust[1], xy_room)
-        # anti-windup: no vertical integration into a thrust limit; horizontal tracking anti-windup
-        if (thrust[2] >= -thr_min and error[2] >= 0.0) or (thrust[2] <= -thr_max and error[2] <= 0.0):
-            error[2] = 0.0
-        produced = (thrust[0] * GRAVITY / hover, thrust[1] * GRAVITY / hover)
-        if acc[0] ** 2 + acc[1] ** 2 > produced[0] ** 2 + produced[1] ** 2:
-            arw = 2.0 / xy_p
-            error[0] -= arw * (acc[0] - produced[0])
-            error[1] -= arw * (acc[1] - produced[1])
-        for i in (0, 1, 2):
-            if controlled[i]:
-                integral[i] += gains_i[i] * error[i] * dt
-        integral[2] = _clamp(integral[2], -GRAVITY, GRAVITY)
-        self.acceleration_setpoint = acc
-        return thrust
 
     # -- dynamics --------------------------------------------------------------------------
 
@@ -284,24 +158,24 @@ class VehicleModel:
         """Advance the model by dt seconds, flying setpoint `sp` when the motors allow."""
         p = self.params
         climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
+        control = self.control
         if self.motors_on:
-            self._update_takeoff(sp, now_s, dt, climb_speed)
-        flying = self.takeoff_state in ('rampup', 'flight')
+            control.update_takeoff(sp, dt, climb_speed, self.spooled_up(now_s), self.estimate[0][2], self.landed)
+        flying = control.flying()
         if flying:
-            thrust_sp = self._control(sp, dt)
-            if _is(sp.yaw):
+            thrust_sp = control.thrust(sp, self.estimate, self.acceleration, dt)
+            if is_set(sp.yaw):
                 yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
             else:
-                yaw_rate = sp.yaw_rate if _is(sp.yaw_rate) else 0.0
-            self.yaw_rate = _clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
+                yaw_rate = sp.yaw_rate if is_set(sp.yaw_rate) else 0.0
+            self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
             self.setpoint = sp
         else:
             # motors off or idling, the controller held (PX4 resets its integrals until the ramp)
             thrust_sp = [0.0, 0.0, 0.0]
-            self.integral = [0.0, 0.0, 0.0]
+            control.hold()
             self.yaw_rate = 0.0
-            self.setpoint, self.acceleration_setpoint = None, None
-            self.velocity_setpoint = (NAN, NAN, NAN)
+            self.setpoint = None
         self.thrust_setpoint = thrust_sp
         self._attitude_loop(self._delayed(thrust_sp, now_s), dt)
         mass = max(p['SIH_MASS'], 0.01)  # SIH's airframe parameters are not range-checked
@@ -361,8 +235,8 @@ class VehicleModel:
             scale = 1.0
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         roll_max, pitch_max = math.radians(p['MC_ROLLRATE_MAX']), math.radians(p['MC_PITCHRATE_MAX'])
-        rates_sp = (_clamp(p['MC_ROLL_P'] * scale * (cx * c + cy * s), -roll_max, roll_max),
-                    _clamp(p['MC_PITCH_P'] * scale * (cy * c - cx * s), -pitch_max, pitch_max))
+        rates_sp = (clamp(p['MC_ROLL_P'] * scale * (cx * c + cy * s), -roll_max, roll_max),
+                    clamp(p['MC_PITCH_P'] * scale * (cy * c - cx * s), -pitch_max, pitch_max))
         roll_sp, pitch_sp = rates_sp
         substeps = int(dt / ATTITUDE_SUBSTEP_S - 1e-9) + 1
         h = dt / substeps
