@@ -32,7 +32,8 @@ class ConversationTest(OffboardTestCase):
 
     def test_conversation_as_the_real_stack(self):
         vehicle = Vehicle('mavros')
-        fly_takeoff_and_record(self, vehicle, rospy.get_param('~control_port'))
+        fly_takeoff_and_record(self, vehicle, rospy.get_param('~control_port'),
+                               after_s=rospy.get_param('~after_s', 100.0))
         path = rospy.get_param('~record')
         reference = analysis.Summary(reading.read(os.path.join(rospkg.RosPack().get_path(PKG), REFERENCE)),
                                      'real mavros + real PX4')

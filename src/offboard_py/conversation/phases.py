@@ -3,7 +3,7 @@
 The flight of the references (reference/conversations/README.md): connect, stream setpoints,
 OFFBOARD, arm, hover; the node stops (the setpoints end), PX4's offboard-loss failsafe (AUTO.RTL)
 lands and disarms. Boundaries, each the first message that shows it:
-  connecting   the recording's start .. the ROS side's first setpoint
+  connecting   the FCU's first message (its boot, as the references begin) .. the ROS side's first setpoint
   pre-stream   the first setpoint .. the FCU's first HEARTBEAT in OFFBOARD
   OFFBOARD     .. the FCU's first HEARTBEAT armed
   armed hover  .. the ROS side's last setpoint
@@ -44,7 +44,11 @@ def is_fcu_heartbeat(m):
 
 def anchors(messages):
     """{'start', 'end', 'connected', 'first setpoint', 'last setpoint'}: times (None when absent)."""
-    out = {'start': messages[0].t if messages else 0.0, 'end': messages[-1].t if messages else 0.0,
+    # the flight starts with the FCU's first message (the references begin at PX4's boot, mavros already
+    # up): what a ROS side sends before there is an FCU is not part of it
+    first_fcu = next((m.t for m in messages if m.dir == 'fcu'), None)
+    start = first_fcu if first_fcu is not None else (messages[0].t if messages else 0.0)
+    out = {'start': start, 'end': messages[-1].t if messages else 0.0,
            'connected': None, 'first setpoint': None, 'last setpoint': None}
     ros_spoke = False
     for m in messages:
