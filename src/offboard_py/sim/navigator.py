@@ -51,9 +51,22 @@ def land_speed(params, height):
     return min(speed, fast)
 
 
+# Once the land detector feels the ground, PX4's landing keeps asking for more descent (its descent
+# setpoint grows while the vehicle stands still: reference/conversations, takeoff-mavros-px4,
+# POSITION_TARGET_LOCAL_NED at 63.5-64.5 s), which winds the thrust down to the land detector's
+# minimal thrust (MINIMAL_THRUST_FRACTION, PX4's 10 %). The rate is fitted to the AUTO landings of
+# reference/px4-sitl-measured.md (NAV_LAND from 2.2 m: 12.8 s; cmd/land from 5 m: 15.3 s): with it
+# touchdown -> landed takes about 6 s after a slow final descent. The recorded RTL landings of the
+# conversations took 3.3-3.5 s (a faster touchdown, a faster-growing setpoint); one rate cannot fit both.
+LAND_PUSH_ACC = 0.03  # m/s^2
+
+
 def land_setpoint(params, xy, vehicle):
-    """Descend over xy at PX4's landing speeds."""
+    """Descend over xy at PX4's landing speeds; on the ground, push down harder (LAND_PUSH_ACC)."""
     speed = land_speed(params, vehicle.height())
+    pushed_s = vehicle.ground_contact_held_s()
+    if pushed_s is not None:
+        speed += LAND_PUSH_ACC * pushed_s
     return vm.setpoint(position=(xy[0], xy[1], vm.NAN), velocity=(vm.NAN, vm.NAN, speed), yaw=vehicle.yaw)
 
 

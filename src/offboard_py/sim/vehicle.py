@@ -48,8 +48,13 @@ NAN = float('nan')
 TILT_LIMIT_SLEW = 0.2     # rad/s: how fast PX4 lets the tilt limit change (_tilt_limit_slew_rate)
 # PX4's MulticopterLandDetector: hysteresis of its stages and its thrust thresholds
 GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
+# (MulticopterLandDetector.cpp: low thrust 30 % of the range, 60 % with a valid hover-thrust estimate,
+# which PX4 SITL always has; minimal thrust 10 %). The 10 % is what makes a takeoff lose maybe-landed
+# early in the ramp: landed_state IN_AIR 1.86 and 1.98 s after an OFFBOARD arm (reference/conversations),
+# and a disarm 1.9 s after the arm TEMPORARILY_REJECTED (reference/px4-sitl-measured.md, "Turn 3
+# recordings", section 6)
 LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
-MINIMAL_THRUST_FRACTION = 0.3  # ... "minimal thrust" (maybe landed)
+MINIMAL_THRUST_FRACTION = 0.1  # ... "minimal thrust" (maybe landed)
 TAKEOFF_TRIGGER_M = 0.2        # a position setpoint this far above asks for a takeoff (PX4)
 # PX4 SITL's local position on the ground after a fresh start (reference/px4-sitl-measured.md, "Turn 3
 # recordings", section 7: eight starts): z reads 0.1-0.55 m above the origin and takes a few values
@@ -209,6 +214,7 @@ class Vehicle:
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
         self._stages = {}  # land-detector stage -> [state, since when its condition holds]
+        self._now_s = None  # the time of the last step
         self._reset_stages(self.landed)
         self.estimate = (tuple(self.position), (0.0, 0.0, 0.0))
         self._attitude = None  # cached for the current step: telemetry asks more often than we step
@@ -350,6 +356,7 @@ class Vehicle:
     def step(self, dt, sp, now_s):
         """Advance the model by dt seconds, flying setpoint `sp` when the motors allow."""
         p = self.params
+        self._now_s = now_s
         climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
         if self.motors_on:
             self._update_takeoff(sp, now_s, dt, climb_speed)
@@ -503,6 +510,14 @@ class Vehicle:
         contact = self._stage('contact', (low_thrust or (descending and still)) and still, GROUND_CONTACT_S, now_s)
         maybe = self._stage('maybe', contact and minimal_thrust, MAYBE_LANDED_S, now_s)
         self.landed = self._stage('landed', maybe, LANDED_S, now_s)
+
+    def ground_contact_held_s(self):
+        """How long the land detector has said ground contact on the ground (s), or None while it does
+        not (a brief false contact in the air, as a descent starts, does not count)."""
+        state, since = self._stages['contact']
+        if not (state and self.ground_contact) or since is None or self._now_s is None:
+            return None
+        return max(0.0, self._now_s - since - GROUND_CONTACT_S)
 
     @property
     def maybe_landed(self):
