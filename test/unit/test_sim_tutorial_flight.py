@@ -106,3 +106,83 @@ def test_after_the_failsafe_landing_px4_disarms_and_reports_offboard_uninit_and_
     assert (st.base_mode, st.custom_mode, st.intended_custom_mode) == (17, OFFBOARD, OFFBOARD)
     assert st.system_status == M.MAV_STATE_UNINIT and not st.prearm_ok
     assert st.landed_state == M.MAV_LANDED_STATE_ON_GROUND
+
+
+# -- what PX4 sends to its own components in the failsafe (the recorded COMMAND_LONGs) -------------
+
+# 1.365 s (56.622 - 55.257) and 1.287 s (57.173 - 55.886) after the last setpoint
+LAST_SETPOINT_TO_GIMBAL_S = (1.287, 1.365)
+# the idle item's command, 0.0-0.15 s from the landing's EXTENDED_SYS_STATE ON_GROUND (sampled at 5 Hz)
+RECORDED_REPEATS_S = ((1.016, 1.529, 2.041), (1.025, 1.539, 2.054), (1.014, 1.526, 2.040), (1.013, 1.526, 2.040))
+NAN_PARAM = float('nan')
+
+
+def failsafe_flight():
+    """The tutorial until disarmed; the navigator's vehicle commands with their times."""
+    tut = Tutorial()
+    tut.armed_in_offboard()
+    tut.until(lambda st: st.position[2] <= -1.9, 15.0, 'climb to 1.9 m')
+    tut.run(10.0)
+    tut.streaming = False
+    last_setpoint_s = tut._next_s - SETPOINT_PERIOD_S
+    commands, landed_s = [], None
+    while tut.flight.status(tut.t).armed and tut.t < 200.0:
+        st = tut.step()
+        if landed_s is None and st.landed_state == M.MAV_LANDED_STATE_ON_GROUND:
+            landed_s = tut.t
+        commands += [(tut.t + e.delay_s, e) for e in tut.flight.take_events() if type(e).__name__ == 'VehicleCommand']
+    return tut, last_setpoint_s, landed_s, commands
+
+
+def test_the_failsafe_return_sends_the_gimbal_commands_and_the_landing_its_idle_item_as_px4():
+    tut, last_setpoint_s, landed_s, commands = failsafe_flight()
+    got = [(e.command, e.repeat) for _, e in commands]
+    assert got == [(M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, True), (M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, False),
+                   (M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, False), (0, True)], got
+    gimbal_s = commands[0][0] - last_setpoint_s
+    assert within(gimbal_s, LAST_SETPOINT_TO_GIMBAL_S), 'gimbal %.2f s after the last setpoint' % gimbal_s
+    take, neutral, release, idle = [e.params for _, e in commands]
+    assert take == (1.0, 1.0, -1.0, -1.0, 0.0, 0.0, 0.0) and release == (-3.0, -3.0, -1.0, -1.0, 0.0, 0.0, 0.0)
+    assert all(p != p for p in neutral[:4]) and neutral[4:] == (2.0, 0.0, 0.0)
+    home_amsl = tut.flight.navigator.mission.frame.alt0 - tut.flight.home[2]
+    assert idle[:3] == (0.0, 2.0, 80.0) and idle[3] != idle[3] and idle[4:6] == (0.0, 0.0)
+    assert abs(idle[6] - home_amsl) < 1e-6, 'param7: the home altitude AMSL (HOME_POSITION.altitude)'
+    assert 0.0 <= commands[3][0] - landed_s <= 0.15
+
+
+def test_the_autopilot_sends_a_vehicle_command_to_its_own_system_and_repeats_it_until_acknowledged():
+    from offboard_py.sim import events as ev
+    from offboard_py.sim.autopilot import SimulatedPx4
+
+    class Clock(object):
+        now = 1000.0
+
+        def __call__(self):
+            return self.now
+    clock = Clock()
+    ap = SimulatedPx4(bind_host='127.0.0.1', local_port=0, remote_port=9, gcs=False, ready_delay_s=0.0, clock=clock)
+    sent = []
+    ap.link.send = lambda msg: sent.append((clock.now, msg))
+    try:
+        ap._send_vehicle_command(ev.VehicleCommand(0, (0.0, 2.0, 80.0, NAN_PARAM, 0.0, 0.0, 490.0), True))
+        for _ in range(3000):
+            clock.now += 0.001
+            ap._send_deferred()
+        times = [t - 1000.0 for t, _ in sent]
+        assert [m.confirmation for _, m in sent] == [0, 1, 2, 3]
+        assert {(m.target_system, m.target_component, m.command) for _, m in sent} == {(ap.system_id, 0, 0)}
+        for i in (1, 2, 3):
+            assert min(r[i - 1] for r in RECORDED_REPEATS_S) * 0.9 <= times[i] <= \
+                max(r[i - 1] for r in RECORDED_REPEATS_S) * 1.1, times
+        del sent[:]
+        ap._send_vehicle_command(ev.VehicleCommand(M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, (1.0,) * 7, True))
+        ap._send_deferred()
+        ack = ap.mav.command_ack_encode(M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, M.MAV_RESULT_ACCEPTED, 0, 0,
+                                        ap.system_id, 1)
+        ap._on_command_ack(ack)
+        for _ in range(3000):
+            clock.now += 0.001
+            ap._send_deferred()
+        assert [m.confirmation for _, m in sent] == [0], 'acknowledged: no repeats'
+    finally:
+        ap.close_links()

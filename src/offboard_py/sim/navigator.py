@@ -59,6 +59,10 @@ def land_speed(params, height):
 # touchdown -> landed takes about 6 s after a slow final descent. The recorded RTL landings of the
 # conversations took 3.3-3.5 s (a faster touchdown, a faster-growing setpoint); one rate cannot fit both.
 LAND_PUSH_ACC = 0.03  # m/s^2
+# The gimbal commands of a return left 0.16-0.4 s after its setpoint took over (reference/conversations:
+# POSITION_TARGET_LOCAL_NED changed at 56.36-56.46 s and 56.76-56.96 s, COMMAND_LONG 1001 at 56.62 and 57.17 s),
+# 1.29-1.37 s after the last setpoint
+GIMBAL_DELAY_S = 0.25
 
 
 def land_setpoint(params, xy, vehicle):
@@ -298,6 +302,7 @@ class Navigator:
         self.rtl_phase = None
         self.rtl_down = None   # RTL: the return altitude as local z
         self._loiter_at = None  # where AUTO.LOITER holds after a takeoff (the takeoff altitude)
+        self._idle_sent = False  # the return's idle item went out for this landing
 
     @property
     def home(self):
@@ -319,6 +324,9 @@ class Navigator:
             self.hold_point = self._loiter_at
         self._loiter_at = None
         self.flyer.direct(None)
+        if mode in ('AUTO.LAND', 'AUTO.RTL'):
+            self._gimbal_neutral()
+            self._idle_sent = False
         if mode == 'AUTO.LAND':
             self.land_xy = (v.position[0], v.position[1])
         elif mode == 'AUTO.RTL':
@@ -331,6 +339,34 @@ class Navigator:
             self.takeoff_target = None
         elif self.takeoff_target is None:
             self.takeoff_target = (v.position[0], v.position[1], self.home[2] - p['MIS_TAKEOFF_ALT'])
+
+    def _gimbal_neutral(self):
+        """PX4's Land and RTL activation: take the gimbal, point it neutral, let it go (navigator's
+        acquire_gimbal_control, set_gimbal_neutral, release_gimbal_control), as recorded in the
+        failsafe's return (reference/conversations: COMMAND_LONG 1001 (1, 1, -1, -1), 1000 (NaN x4,
+        flags NEUTRAL), 1001 (-3, -3, -1, -1); only the first repeated), GIMBAL_DELAY_S after the
+        return's setpoint took over."""
+        nan = vm.NAN
+        self.events.append(ev.VehicleCommand(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE,
+                                             (1.0, 1.0, -1.0, -1.0, 0.0, 0.0, 0.0), True, GIMBAL_DELAY_S))
+        self.events.append(ev.VehicleCommand(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+                                             (nan, nan, nan, nan, float(mavlink.GIMBAL_MANAGER_FLAGS_NEUTRAL),
+                                              0.0, 0.0), False, GIMBAL_DELAY_S))
+        self.events.append(ev.VehicleCommand(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE,
+                                             (-3.0, -3.0, -1.0, -1.0, 0.0, 0.0, 0.0), False, GIMBAL_DELAY_S))
+
+    def _idle_on_landing(self):
+        """PX4's return, once landed, sets its idle item and publishes it as a vehicle command: command
+        0 (NAV_CMD_IDLE) with the mission item's fields (acceptance radius NAV_ACC_RAD, loiter radius
+        NAV_LOITER_RAD, yaw NaN, the home altitude AMSL), recorded at the landing in both conversations
+        (COMMAND_LONG 0 (0, 2, 80, NaN, 0, 0, 490.27), repeated)."""
+        if self._idle_sent:
+            return
+        self._idle_sent = True
+        p = self.params
+        home_amsl = self.mission.frame.alt0 - self.home[2]
+        self.events.append(ev.VehicleCommand(0, (0.0, p['NAV_ACC_RAD'], p['NAV_LOITER_RAD'], vm.NAN, 0.0, 0.0,
+                                                 home_amsl), True))
 
     def on_armed(self, mode):
         self.hold_point = tuple(self.vehicle.position)
@@ -404,4 +440,6 @@ class Navigator:
                 # no stop at RTL_DESCEND_ALT: the landing goes on at the landing speed there
                 return f.fly_to(v, (home[0], home[1], descend_down), now_s,
                                 speed_at_target=land_speed(p, p['RTL_DESCEND_ALT']))
+        if v.landed:
+            self._idle_on_landing()
         return f.direct(land_setpoint(p, (home[0], home[1]), v))
