@@ -126,12 +126,25 @@ def failsafe_flight():
     tut.streaming = False
     last_setpoint_s = tut._next_s - SETPOINT_PERIOD_S
     commands, landed_s = [], None
+    tut.texts = [e for e in tut.flight.take_events() if type(e).__name__ == 'StatusText']
     while tut.flight.status(tut.t).armed and tut.t < 200.0:
         st = tut.step()
         if landed_s is None and st.landed_state == M.MAV_LANDED_STATE_ON_GROUND:
             landed_s = tut.t
-        commands += [(tut.t + e.delay_s, e) for e in tut.flight.take_events() if type(e).__name__ == 'VehicleCommand']
+        events = tut.flight.take_events()
+        commands += [(tut.t + e.delay_s, e) for e in events if type(e).__name__ == 'VehicleCommand']
+        tut.texts += [e for e in events if type(e).__name__ == 'StatusText']
+    tut.run(1.0)
+    tut.texts += [e for e in tut.flight.take_events() if type(e).__name__ == 'StatusText']
     return tut, last_setpoint_s, landed_s, commands
+
+
+def test_the_whole_flight_says_nothing_as_statustext_as_px4_main():
+    """PX4 main sent no STATUSTEXT on the onboard link in the recorded flights (its texts are events)."""
+    tut = failsafe_flight()[0]
+    said = [e.text for e in tut.texts]
+    assert {'Armed', 'Takeoff detected', 'Landing detected'} <= set(said), said
+    assert [e.text for e in tut.texts if e.on_link] == []
 
 
 def test_the_failsafe_return_sends_the_gimbal_commands_and_the_landing_its_idle_item_as_px4():

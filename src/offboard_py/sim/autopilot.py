@@ -471,8 +471,10 @@ class SimulatedPx4:
                 # at once (the recorded conversations: both strictly periodic through every change)
                 log.info('mode %s%s, %s', status.nav_mode, ' (failsafe)' if status.failsafe else '',
                          'armed' if status.armed else 'disarmed')
-            elif isinstance(event, ev.StatusText):
+            elif isinstance(event, ev.StatusText) and event.on_link:
                 self._text(event.severity, event.text)
+            elif isinstance(event, ev.StatusText):
+                log.info('%s', event.text)  # PX4 says it as an event only (sim.commander._event)
             elif isinstance(event, ev.MissionCurrent):
                 self._broadcast(self.telemetry.build('MISSION_CURRENT', status, now))
             elif isinstance(event, ev.ItemReached):

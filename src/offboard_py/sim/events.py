@@ -21,9 +21,11 @@ class ArmingChanged(NamedTuple):
 
 
 class StatusText(NamedTuple):
-    """A message for the pilot, with its MAV_SEVERITY."""
+    """A message for the pilot, with its MAV_SEVERITY. `on_link` False: PX4 main says it only as an
+    event (EVENT, on request), never as STATUSTEXT, so the simulator only logs it."""
     severity: int
     text: str
+    on_link: bool = True
 
 
 class TakeoffComplete(NamedTuple):
