@@ -467,3 +467,48 @@ def test_ack_is_addressed_to_the_sender(start_sim):
     client.send(client.mav.command_long_encode(client.target, 1, unsupported, 0, 0, 0, 0, 0, 0, 0, 0))
     ack = client.wait_for(lambda: next((a for _, a in client.acks if a.command == unsupported), None), 2.0, 'ACK')
     assert (ack.target_system, ack.target_component) == (255, mavlink.MAV_COMP_ID_MISSIONPLANNER)
+
+
+# The tutorial flight on real PX4 SITL (reference/px4-sitl-measured.md: arm -> z 1.9 m 7.41 and 7.48 s,
+# "Turn 3 recordings" section 2: 6.76 and 8.51 s), its disarm 1.9 s after the arm (section 6:
+# TEMPORARILY_REJECTED), and the failsafe's gimbal commands on the onboard link (reference/conversations:
+# COMMAND_LONG 1001, 1000, 1001 to system 1 component 0, the first repeated with confirmation 1-3)
+ARM_TO_1_9_M_S = (6.76, 8.51)
+
+
+def test_tutorial_takeoff_timing_disarm_refused_while_climbing_and_failsafe_gimbal_commands(start_sim):
+    sim, client = start_sim('--ready-delay', '4')
+    client.start_stream(down=-2.0)
+    client.wait_for(lambda: client.latest.get('HEARTBEAT') and client.latest['HEARTBEAT'].system_status
+                    == mavlink.MAV_STATE_STANDBY, 8.0, 'pre-flight checks passing')
+    assert client.set_mode('OFFBOARD') == ACCEPTED
+    client.sleep(1.0)
+    t_arm = client.now()
+    assert client.arm() == ACCEPTED
+    client.sleep(max(0.0, t_arm + 1.9 - client.now()))
+    assert client.arm(False) == TEMPORARILY_REJECTED, 'PX4: not landed 1.9 s into an OFFBOARD takeoff'
+    client.wait_for(lambda: client.z() <= -1.9, 15.0, 'z 1.9 m up')
+    took = client.now() - t_arm
+    print('arm -> 1.9 m: %.2f s' % took)
+    assert ARM_TO_1_9_M_S[0] * 0.9 <= took <= ARM_TO_1_9_M_S[1] * 1.1, 'arm -> 1.9 m %.2f s, PX4 %s' % (
+        took, ARM_TO_1_9_M_S)
+    client.sleep(3.0)
+    client.stop_stream()
+    stopped = client.now()
+    client.wait_for(lambda: len([m for _, m in client.received('COMMAND_LONG')
+                                 if m.command == mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE]) >= 5, 6.0,
+                    'the return\'s gimbal commands and their repeats')
+    got = [(round(t - stopped, 2), m.command, m.confirmation, m.target_system, m.target_component)
+           for t, m in client.received('COMMAND_LONG')]
+    assert [g[1:] for g in got[:6]] == [
+        (mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 0, sim.system_id, 0),
+        (mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, 0, sim.system_id, 0),
+        (mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 0, sim.system_id, 0),
+        (mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 1, sim.system_id, 0),
+        (mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 2, sim.system_id, 0),
+        (mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, 3, sim.system_id, 0)], got
+    # recorded 1.29-1.37 s after the last setpoint (the stream stops within one 20 Hz period of `stopped`)
+    assert 1.29 * 0.9 - 0.05 <= got[0][0] <= 1.37 * 1.1, got
+    texts = [m.text for _, m in client.received('STATUSTEXT')]
+    # our refused disarm's text aside, none: PX4 main says arming, takeoff and the failsafe as events only
+    assert [text for text in texts if not text.startswith('Disarming denied')] == [], texts

@@ -209,14 +209,33 @@ def test_battery_status_message_and_charge_states():
 def test_every_stream_builds_on_the_ground_and_in_the_air():
     f = make(rc=True)  # RC_CHANNELS needs an RC link
     b = builder(f)
-    for name in sorted((telemetry.STREAMABLE | telemetry.ON_REQUEST) - telemetry.PER_LINK):
+    auto_only = {'POSITION_TARGET_GLOBAL_INT'}
+    for name in sorted((telemetry.STREAMABLE | telemetry.ON_REQUEST) - telemetry.PER_LINK - auto_only):
         assert b.build(name, f.status(1.0), 1.0) is not None, name
     f.on_offboard_setpoint(hover_setpoint(), 0.0)
     f.request_mode('OFFBOARD', 0.0)
     f.request_arming(True, False, 0.0)
     t = fly(f, 0.0, 12.0, hover_setpoint())
-    for name in sorted(telemetry.STREAMABLE - telemetry.PER_LINK):
+    for name in sorted(telemetry.STREAMABLE - telemetry.PER_LINK - auto_only):
         assert b.build(name, f.status(t), t) is not None, name
+
+
+def test_position_target_global_int_only_while_armed_in_an_auto_mode():
+    """reference/conversations: POSITION_TARGET_GLOBAL_INT (frame GLOBAL_INT, type_mask 0) at 9.9/s from the
+    failsafe's AUTO.RTL to the disarm; none on the ground, hovering in OFFBOARD or after the disarm."""
+    f = make()
+    b = builder(f)
+    assert b.build('POSITION_TARGET_GLOBAL_INT', f.status(1.0), 1.0) is None
+    f.on_offboard_setpoint(hover_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = fly(f, 0.0, 12.0, hover_setpoint())
+    assert b.build('POSITION_TARGET_GLOBAL_INT', f.status(t), t) is None
+    t = fly(f, t, 2.0)  # the setpoints stop: the failsafe's return
+    msg = b.build('POSITION_TARGET_GLOBAL_INT', f.status(t), t)
+    assert f.status(t).nav_mode == 'AUTO.RTL' and msg is not None
+    assert (msg.coordinate_frame, msg.type_mask) == (M.MAV_FRAME_GLOBAL_INT, 0)
+    assert telemetry.ONBOARD_RATES_HZ['POSITION_TARGET_GLOBAL_INT'] == 10.0
 
 
 def test_rc_channels_only_with_an_rc_link():

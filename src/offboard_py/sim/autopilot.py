@@ -42,6 +42,9 @@ ACK_DELAY_S = 0.004
 PARAM_LIST_BATCH = 20  # PARAM_VALUEs per loop step while answering PARAM_REQUEST_LIST
 ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
+# PX4's MavlinkCommandSender repeats a command it sent until acknowledged: recorded at +1.01, +1.53 and
+# +2.04 s after the first, with confirmation 1, 2, 3 (reference/conversations, COMMAND_LONG 1001 and 0)
+COMMAND_REPEATS_S = (1.01, 1.53, 2.04)
 # What REQUEST_MESSAGE's older, dedicated commands ask for
 REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
                         mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
@@ -164,6 +167,7 @@ class SimulatedPx4:
         control('MISSION_ITEM', self._mission(lambda m, t: self.transfer.on_item(m, t)))
         control('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.transfer.on_clear_all(m)))
         control('MISSION_SET_CURRENT', self._mission(lambda m, t: self._set_current(m.seq)))
+        on('COMMAND_ACK', self._on_command_ack)
         on('PARAM_REQUEST_LIST', self._on_param_request_list)
         on('PARAM_REQUEST_READ', self._on_param_request_read)
         on('MISSION_REQUEST_LIST', self._mission(lambda m, t: self.transfer.on_request_list(m)))
@@ -224,6 +228,24 @@ class SimulatedPx4:
             self.deferred = [d for d in self.deferred if d[0] > now]
             for _, link, msg in due:
                 link.send(msg)
+
+    def _send_vehicle_command(self, event):
+        """A command of the navigator's, as PX4's COMMAND_LONG stream sends it on every link: to its own
+        system, component 0 (MAV_COMP_ID_ALL), after `delay_s`, repeated while unacknowledged."""
+        first = self.clock() + event.delay_s
+        sends = [(first, 0)]
+        if event.repeat:
+            sends += [(first + after, i) for i, after in enumerate(COMMAND_REPEATS_S, 1)]
+        for due, confirmation in sends:
+            msg = self.mav.command_long_encode(self.system_id, mavlink.MAV_COMP_ID_ALL, event.command, confirmation,
+                                               *event.params)
+            for link in self.links:
+                self.deferred.append((due, link, msg))
+
+    def _on_command_ack(self, msg):
+        """An answer to a command we sent: PX4's command sender stops repeating it."""
+        self.deferred = [d for d in self.deferred
+                         if not (d[2].get_type() == 'COMMAND_LONG' and d[2].command == msg.command and d[2].confirmation)]
 
     def _on_set_mode(self, msg):
         if msg.target_system != self.system_id:
@@ -449,12 +471,16 @@ class SimulatedPx4:
                 # at once (the recorded conversations: both strictly periodic through every change)
                 log.info('mode %s%s, %s', status.nav_mode, ' (failsafe)' if status.failsafe else '',
                          'armed' if status.armed else 'disarmed')
-            elif isinstance(event, ev.StatusText):
+            elif isinstance(event, ev.StatusText) and event.on_link:
                 self._text(event.severity, event.text)
+            elif isinstance(event, ev.StatusText):
+                log.info('%s', event.text)  # PX4 says it as an event only (sim.commander._event)
             elif isinstance(event, ev.MissionCurrent):
                 self._broadcast(self.telemetry.build('MISSION_CURRENT', status, now))
             elif isinstance(event, ev.ItemReached):
                 self._broadcast(self.mav.mission_item_reached_encode(event.seq))
+            elif isinstance(event, ev.VehicleCommand):
+                self._send_vehicle_command(event)
 
     def step(self, dt, slot_s=None, out=None):
         """One cycle of the loop at `slot_s` (the cycle's time on the loop's schedule, seconds

@@ -113,8 +113,14 @@ class Commander:
     def offboard_signal(self, now_s):
         return self.offboard_s is not None and now_s - self.offboard_s <= self.params['COM_OF_LOSS_T']
 
-    def _say(self, severity, text):
-        self.events.append(ev.StatusText(severity, text))
+    def _say(self, severity, text, on_link=True):
+        self.events.append(ev.StatusText(severity, text, on_link))
+
+    def _event(self, severity, text):
+        """What PX4 main says through its events only: in a whole recorded tutorial flight (ready,
+        arming, takeoff, the offboard-loss failsafe, landing, disarm) it sent no STATUSTEXT on the
+        onboard link (reference/px4-sitl-measured.md, "The onboard link"; reference/conversations)."""
+        self._say(severity, text, on_link=False)
 
     # -- mode changes -----------------------------------------------------------------------
 
@@ -224,7 +230,7 @@ class Commander:
         self.log_stop_s = None
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(True, 'commanded'))
-        self._say(mavlink.MAV_SEVERITY_INFO, 'Armed')
+        self._event(mavlink.MAV_SEVERITY_INFO, 'Armed')
 
     def _disarm(self, why, now_s):
         self.armed = False
@@ -232,7 +238,7 @@ class Commander:
         self.log_stop_s = now_s + log_close_s(logged_s)
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(False, why))
-        self._say(mavlink.MAV_SEVERITY_INFO, 'Disarmed (%s)' % why)
+        self._event(mavlink.MAV_SEVERITY_INFO, 'Disarmed (%s)' % why)
         if self.failsafe or self.nav_mode in TRANSIENT_MODES:
             mode = self.fallback_mode
             self.failsafe = False
@@ -259,13 +265,13 @@ class Commander:
         """Before the vehicle steps: readiness, and the offboard-loss failsafe."""
         if not self.ready_announced and self.ready(now_s):
             self.ready_announced = True
-            self._say(mavlink.MAV_SEVERITY_INFO, 'Ready for takeoff!')
+            self._event(mavlink.MAV_SEVERITY_INFO, 'Ready for takeoff!')
         if not (self.armed and self.nav_mode == 'OFFBOARD') or self.offboard_signal(now_s):
             return
         action = OBL_ACTIONS.get(self.params['COM_OBL_RC_ACT'], 'AUTO.RTL')
         if action in RC_MODES and not self.rc:
             action = RCL_ACTIONS.get(self.params['NAV_RCL_ACT'], 'AUTO.RTL')
-        self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Failsafe: no offboard signal, activating %s' % action)
+        self._event(mavlink.MAV_SEVERITY_CRITICAL, 'Failsafe: no offboard signal, activating %s' % action)
         if action in ('disarm', 'terminate'):  # motors off: in the air the vehicle falls
             self._disarm('offboard signal lost, %s' % action, now_s)
             return
@@ -279,7 +285,7 @@ class Commander:
         if not self.landed:
             if not self.takeoff_detected:
                 self.takeoff_detected = True
-                self._say(mavlink.MAV_SEVERITY_INFO, 'Takeoff detected')
+                self._event(mavlink.MAV_SEVERITY_INFO, 'Takeoff detected')
             self.landed_s = None
             return
         if not self.takeoff_detected:
@@ -289,7 +295,7 @@ class Commander:
             return
         if self.landed_s is None:
             self.landed_s = now_s
-            self._say(mavlink.MAV_SEVERITY_INFO, 'Landing detected')
+            self._event(mavlink.MAV_SEVERITY_INFO, 'Landing detected')
         limit = p['COM_DISARM_LAND']
         if limit >= 0 and now_s - self.landed_s >= limit:
             self._disarm('landed', now_s)

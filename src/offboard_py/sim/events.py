@@ -21,9 +21,11 @@ class ArmingChanged(NamedTuple):
 
 
 class StatusText(NamedTuple):
-    """A message for the pilot, with its MAV_SEVERITY."""
+    """A message for the pilot, with its MAV_SEVERITY. `on_link` False: PX4 main says it only as an
+    event (EVENT, on request), never as STATUSTEXT, so the simulator only logs it."""
     severity: int
     text: str
+    on_link: bool = True
 
 
 class TakeoffComplete(NamedTuple):
@@ -36,3 +38,13 @@ class MissionCurrent(NamedTuple):
 
 class ItemReached(NamedTuple):
     seq: int
+
+
+class VehicleCommand(NamedTuple):
+    """A command PX4's navigator publishes for another component of its own system (a gimbal, the
+    mission's idle item): PX4's COMMAND_LONG stream sends it to (own system, component 0), and
+    repeats it while unacknowledged when `repeat` (sim.autopilot)."""
+    command: int
+    params: tuple  # param1..param7
+    repeat: bool
+    delay_s: float = 0.0  # after the event, when PX4's stream sends it

@@ -6,10 +6,14 @@ ground (spool-up, waiting for a takeoff) the vehicle is landed while it rests on
 
 import math
 
-# hysteresis of the stages and the thrust thresholds
+# hysteresis of the stages and the thrust thresholds (MulticopterLandDetector.cpp: low thrust 30 % of
+# the range, 60 % with a valid hover-thrust estimate, which PX4 SITL always has; minimal thrust 10 %).
+# The 10 % is what makes a takeoff lose maybe-landed early in the ramp: landed_state IN_AIR 1.86 and
+# 1.98 s after an OFFBOARD arm (reference/conversations), and a disarm 1.9 s after the arm
+# TEMPORARILY_REJECTED (reference/px4-sitl-measured.md, "Turn 3 recordings", section 6)
 GROUND_CONTACT_S, MAYBE_LANDED_S, LANDED_S = 0.35, 0.25, 0.3
 LOW_THRUST_FRACTION = 0.6      # of (hover - MPC_THR_MIN) above MPC_THR_MIN: "low thrust"
-MINIMAL_THRUST_FRACTION = 0.3  # ... "minimal thrust" (maybe landed)
+MINIMAL_THRUST_FRACTION = 0.1  # ... "minimal thrust" (maybe landed)
 
 
 class LandDetector:
@@ -20,6 +24,13 @@ class LandDetector:
     @property
     def maybe_landed(self):
         return self._stages['maybe'][0]
+
+    def contact_held_s(self, now_s, ground_contact):
+        """How long ground contact has been said on the ground at now_s (s), or None while it is not."""
+        state, since = self._stages['contact']
+        if not (state and ground_contact) or since is None:
+            return None
+        return max(0.0, now_s - since - GROUND_CONTACT_S)
 
     def _reset_stages(self, state):
         self._stages = {name: [state, None] for name in ('contact', 'maybe', 'landed')}

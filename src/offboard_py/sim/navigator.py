@@ -51,9 +51,26 @@ def land_speed(params, height):
     return min(speed, fast)
 
 
+# Once the land detector feels the ground, PX4's landing keeps asking for more descent (its descent
+# setpoint grows while the vehicle stands still: reference/conversations, takeoff-mavros-px4,
+# POSITION_TARGET_LOCAL_NED at 63.5-64.5 s), which winds the thrust down to the land detector's
+# minimal thrust (MINIMAL_THRUST_FRACTION, PX4's 10 %). The rate is fitted to the AUTO landings of
+# reference/px4-sitl-measured.md (NAV_LAND from 2.2 m: 12.8 s; cmd/land from 5 m: 15.3 s): with it
+# touchdown -> landed takes about 6 s after a slow final descent. The recorded RTL landings of the
+# conversations took 3.3-3.5 s (a faster touchdown, a faster-growing setpoint); one rate cannot fit both.
+LAND_PUSH_ACC = 0.03  # m/s^2
+# The gimbal commands of a return left 0.16-0.4 s after its setpoint took over (reference/conversations:
+# POSITION_TARGET_LOCAL_NED changed at 56.36-56.46 s and 56.76-56.96 s, COMMAND_LONG 1001 at 56.62 and 57.17 s),
+# 1.29-1.37 s after the last setpoint
+GIMBAL_DELAY_S = 0.25
+
+
 def land_setpoint(params, xy, vehicle):
-    """Descend over xy at PX4's landing speeds."""
+    """Descend over xy at PX4's landing speeds; on the ground, push down harder (LAND_PUSH_ACC)."""
     speed = land_speed(params, vehicle.height())
+    pushed_s = vehicle.ground_contact_held_s()
+    if pushed_s is not None:
+        speed += LAND_PUSH_ACC * pushed_s
     return vm.setpoint(position=(xy[0], xy[1], vm.NAN), velocity=(vm.NAN, vm.NAN, speed), yaw=vehicle.yaw)
 
 
@@ -388,6 +405,8 @@ class Rtl(NavigatorMode):
                 # no stop at RTL_DESCEND_ALT: the landing goes on at the landing speed there
                 return f.fly_to(v, (home[0], home[1], descend_down), now_s,
                                 speed_at_target=land_speed(p, p['RTL_DESCEND_ALT']))
+        if v.landed:
+            nav._idle_on_landing()
         return f.direct(land_setpoint(p, (home[0], home[1]), v))
 
 
@@ -430,6 +449,7 @@ class Navigator:
                       'AUTO.RTL': self.rtl, 'AUTO.MISSION': Mission(self)}
         self.hold = NavigatorMode(self)  # the modes without a setpoint of their own
         self.active = self.hold
+        self._idle_sent = False  # the return's idle item went out for this landing
 
     @property
     def home(self):
@@ -456,6 +476,9 @@ class Navigator:
         self.hold_point = (v.position[0], v.position[1], min(v.position[2], v.ground_z))
         self.hold_yaw = v.yaw
         self.flyer.direct(None)
+        if mode in ('AUTO.LAND', 'AUTO.RTL'):
+            self._gimbal_neutral()
+            self._idle_sent = False
         new = self.modes.get(mode, self.hold)
         for other in self.modes.values():
             if other is not new:
@@ -463,6 +486,34 @@ class Navigator:
         new.on_activation()
         self.loiter.after_takeoff = None
         self.active = new
+
+    def _gimbal_neutral(self):
+        """PX4's Land and RTL activation: take the gimbal, point it neutral, let it go (navigator's
+        acquire_gimbal_control, set_gimbal_neutral, release_gimbal_control), as recorded in the
+        failsafe's return (reference/conversations: COMMAND_LONG 1001 (1, 1, -1, -1), 1000 (NaN x4,
+        flags NEUTRAL), 1001 (-3, -3, -1, -1); only the first repeated), GIMBAL_DELAY_S after the
+        return's setpoint took over."""
+        nan = vm.NAN
+        self.events.append(ev.VehicleCommand(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE,
+                                             (1.0, 1.0, -1.0, -1.0, 0.0, 0.0, 0.0), True, GIMBAL_DELAY_S))
+        self.events.append(ev.VehicleCommand(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+                                             (nan, nan, nan, nan, float(mavlink.GIMBAL_MANAGER_FLAGS_NEUTRAL),
+                                              0.0, 0.0), False, GIMBAL_DELAY_S))
+        self.events.append(ev.VehicleCommand(mavlink.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE,
+                                             (-3.0, -3.0, -1.0, -1.0, 0.0, 0.0, 0.0), False, GIMBAL_DELAY_S))
+
+    def _idle_on_landing(self):
+        """PX4's return, once landed, sets its idle item and publishes it as a vehicle command: command
+        0 (NAV_CMD_IDLE) with the mission item's fields (acceptance radius NAV_ACC_RAD, loiter radius
+        NAV_LOITER_RAD, yaw NaN, the home altitude AMSL), recorded at the landing in both conversations
+        (COMMAND_LONG 0 (0, 2, 80, NaN, 0, 0, 490.27), repeated)."""
+        if self._idle_sent:
+            return
+        self._idle_sent = True
+        p = self.params
+        home_amsl = self.mission.frame.alt0 - self.home[2]
+        self.events.append(ev.VehicleCommand(0, (0.0, p['NAV_ACC_RAD'], p['NAV_LOITER_RAD'], vm.NAN, 0.0, 0.0,
+                                                 home_amsl), True))
 
     def on_armed(self, mode):
         self.hold_point = tuple(self.vehicle.position)

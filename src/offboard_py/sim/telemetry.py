@@ -35,6 +35,9 @@ ONBOARD_RATES_HZ = {
     'TIMESYNC': 10.0,
     'ATTITUDE_TARGET': 10.0,
     'POSITION_TARGET_LOCAL_NED': 10.0,
+    # only while armed in an AUTO mode (the navigator's setpoint): 9.9/s from the failsafe's return to the
+    # disarm in reference/conversations, none on the ground, in OFFBOARD or after the disarm
+    'POSITION_TARGET_GLOBAL_INT': 10.0,
     'ALTITUDE': 10.0,
     'VFR_HUD': 10.0,
     'SERVO_OUTPUT_RAW': 10.0,
@@ -463,6 +466,19 @@ class TelemetryBuilder:
             self.time_boot_ms(now_s), mavlink.MAV_FRAME_LOCAL_NED, mask, *_finite_or_zero(p), *_finite_or_zero(v),
             *_finite_or_zero(a), st.yaw_setpoint, st.yaw_rate_setpoint if st.yaw_rate_setpoint == st.yaw_rate_setpoint
             else 0.0)
+
+    def _position_target_global_int(self, st, now_s):
+        """The navigator's setpoint in MAV_FRAME_GLOBAL_INT, type_mask 0, as PX4 sends it while armed in an
+        AUTO mode (its position where the setpoint leaves one open; unknown vectors NaN, as recorded)."""
+        if not (st.armed and st.nav_mode.startswith('AUTO.')):
+            return None
+        p = tuple(sp if sp == sp else now for sp, now in zip(st.position_setpoint, st.position))
+        lat, lon, alt = self.frame.to_global(*p)
+        v, a = st.velocity_setpoint, st.acceleration_setpoint
+        return self.mav.position_target_global_int_encode(
+            self.time_boot_ms(now_s), mavlink.MAV_FRAME_GLOBAL_INT, 0, int(round(lat * 1e7)), int(round(lon * 1e7)),
+            alt, *v, *_finite_or_zero(a), st.yaw_setpoint,
+            st.yaw_rate_setpoint if st.yaw_rate_setpoint == st.yaw_rate_setpoint else 0.0)
 
     def _attitude_target(self, st, now_s):
         acc = st.acceleration_setpoint

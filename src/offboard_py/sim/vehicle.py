@@ -121,6 +121,7 @@ class VehicleModel:
         self.contact_since_s = 0.0 if self.ground_contact else None
         self.landed = self.ground_contact
         self.land_detector = LandDetector(self.landed)
+        self._now_s = None  # the time of the last step
         self.estimate = (tuple(self.position), (0.0, 0.0, 0.0))
         self._attitude = None  # cached for the current step: telemetry asks more often than we step
         # the setpoint flown (for telemetry; None while the motors do not fly) and the thrust asked for
@@ -157,6 +158,7 @@ class VehicleModel:
     def step(self, dt, sp, now_s):
         """Advance the model by dt seconds, flying setpoint `sp` when the motors allow."""
         p = self.params
+        self._now_s = now_s
         climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
         control = self.control
         if self.motors_on:
@@ -279,6 +281,13 @@ class VehicleModel:
         """PX4's MulticopterLandDetector (sim.land_detector) on this step's state."""
         idle = not self.motors_on or self.takeoff_state in ('spoolup', 'ready')
         self.landed = self.land_detector.update(self, idle, now_s)
+
+    def ground_contact_held_s(self):
+        """How long the land detector has said ground contact on the ground (s), or None while it does
+        not (a brief false contact in the air, as a descent starts, does not count)."""
+        if self._now_s is None:
+            return None
+        return self.land_detector.contact_held_s(self._now_s, self.ground_contact)
 
     @property
     def maybe_landed(self):
