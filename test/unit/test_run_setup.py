@@ -66,3 +66,11 @@ def test_without_an_installed_distribution_debian_packages_are_used(tmp_path):
     assert code == 0, out
     assert "no ROS in %s: Debian's ROS packages" % (tmp_path / 'no-ros-here') in out, out
     assert 'using ROS' not in out and not [n for n in apt_names(out) if n.startswith(('ros-noetic', 'ros-melodic'))]
+
+
+def test_debian_s_own_ros_distro_name_means_debian_s_packages(tmp_path):
+    """A shell with the workspace sourced on Debian (./run shell) says ROS_DISTRO=Debian: ./run goes on
+    with Debian's packages instead of looking for /opt/ros/Debian."""
+    code, out = dry_run(tmp_path / 'no-ros-here', ROS_DISTRO='Debian')
+    assert code == 0 and 'ROS_DISTRO=Debian but' not in out, out
+    assert "Debian's ROS packages" in out, out

@@ -16,6 +16,7 @@ def main(argv=None):
                                      'takeoff-mavros-px4.jsonl.xz)')
     p.add_argument('ours', help='the recording compared with it')
     p.add_argument('--png', help='write the rates and events to this PNG')
+    p.add_argument('--table', help='also write the tables to this file')
     p.add_argument('--side', action='append', choices=('ros', 'fcu', 'both'),
                    help='only the figures of this side (repeatable; default all)')
     p.add_argument('--fcu-port', type=int, default=reading.FCU_PORT,
@@ -33,10 +34,16 @@ def main(argv=None):
             return 2
         summaries.append(analysis.Summary(messages, path.rsplit('/', 1)[-1]))
     differences = compare.compare(summaries[0], summaries[1], tuple(args.side or ('ros', 'fcu', 'both')))
-    print('\n'.join(report.phase_table(summaries)))
-    print()
-    print('\n'.join(report.difference_table(differences, title='differences of %s from %s'
-                                            % (summaries[1].name, summaries[0].name))))
+    text = '\n'.join(report.phase_table(summaries) + [''] + report.difference_table(
+        differences, title='differences of %s from %s' % (summaries[1].name, summaries[0].name)))
+    print(text)
+    if args.table:
+        try:
+            with open(args.table, 'w') as out:
+                out.write(text + '\n')
+        except OSError as err:
+            print('conversation: --table %s: %s' % (args.table, err.strerror), file=sys.stderr)
+            return 2
     if args.png:
         report.plot(summaries, args.png)
         print('\nwrote %s' % args.png)
