@@ -140,6 +140,10 @@ class MavlinkLink:
         self.pack_datagrams = pack_datagrams
         self.mav = mavlink.MAVLink(_Sink(), srcSystem=system_id, srcComponent=component_id)
         self._send_lock = threading.Lock()  # pymavlink's sequence counter is not thread-safe
+        # held from numbering a message to its sendto(): several threads send (the receive loop, ROS
+        # callbacks, services), and frames must leave in their sequence's order, as mavconn's one
+        # send queue keeps them, or the FCU counts the swaps as lost (LINK_NODE_STATUS.messages_lost)
+        self._order_lock = threading.Lock()
         self.mav.robust_parsing = True
         self.handlers = {}
         self._wanted_ids = set()  # the message ids some handler reads: only these are decoded ...
@@ -236,7 +240,8 @@ class MavlinkLink:
         """Pack and send a pymavlink message; False when no remote is known yet."""
         if self.remote is None:
             return False
-        return self.send_bytes(self._pack(msg))
+        with self._order_lock:
+            return self.send_bytes(self._pack(msg))
 
     def send_many(self, msgs):
         """Send msgs in order, each in a datagram of its own, as PX4 and mavros frame MAVLink over UDP
@@ -245,7 +250,10 @@ class MavlinkLink:
         as fit in MAX_PACKED_BYTES share a datagram. False when no remote is known yet."""
         if self.remote is None:
             return False
-        frames = self._pack_all(msgs)
+        with self._order_lock:
+            return self._send_frames(self._pack_all(msgs))
+
+    def _send_frames(self, frames):
         if not self.pack_datagrams:
             sent = True
             for frame in frames:

@@ -96,3 +96,30 @@ def test_a_link_with_a_peer_follows_only_the_peer_and_does_not_decode_other_syst
         assert link.remote == BRIDGE, 'the peer itself moves it (a restarted FCU on another port)'
     finally:
         link.close()
+
+
+def test_frames_leave_in_their_sequence_order_whatever_thread_sends_them():
+    """The bridge sends from its receive loop, ROS callbacks and service threads; the FCU counts a
+    frame that arrives out of its sequence's order as lost (LINK_NODE_STATUS.messages_lost), so the
+    link numbers and sends each frame under one lock, as mavconn's single send queue does."""
+    import socket
+    import threading
+    receiver = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    receiver.bind(('127.0.0.1', 0))
+    receiver.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+    link = MavlinkLink(('127.0.0.1', 0), receiver.getsockname(), system_id=1, component_id=240, learn_remote=False)
+    msg = mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID,
+                                             0, 0, 0, 3)
+    try:
+        threads = [threading.Thread(target=lambda: [link.send(msg) for _ in range(300)]) for _ in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        receiver.settimeout(1.0)
+        seqs = [receiver.recv(300)[4] for _ in range(1200)]
+    finally:
+        link.close()
+        receiver.close()
+    steps = [(b - a) & 0xFF for a, b in zip(seqs, seqs[1:])]
+    assert steps == [1] * len(steps), 'out of order at %s' % [i for i, s in enumerate(steps) if s != 1][:5]
