@@ -23,8 +23,45 @@ from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle
 PKG = 'offboard_py'
 REFERENCE = 'reference/conversations/takeoff-mavros-px4.compact.jsonl.xz'
 
-# fnmatch pattern of a figure's key (offboard_py.conversation.analysis) -> why we accept that it differs
+BOOT = ('PX4 starts its streams over its first seconds after boot (its first HEARTBEAT 1.0 s after its '
+        'first message, ATTITUDE 0.14 s and GLOBAL_POSITION_INT 1.26 s after that, HOME_POSITION once home is '
+        'set); the simulator starts every stream, HEARTBEAT included, at boot and sets home when the pre-flight '
+        'checks pass (4 s)')
+HEARTBEAT_PHASE = ('PX4 says a mode or arming change in its next 1 Hz HEARTBEAT, strictly periodic in the '
+                   'recording: the delay is that HEARTBEAT\'s phase against the request (0.04 s in the reference '
+                   'by chance, 0-1 s here), and the phases it bounds move with it')
+
+# fnmatch pattern of a figure's key (offboard_py.conversation.analysis) -> why we accept that it differs.
+# Each must differ in every run: one that no longer does fails the test, so the list only shrinks.
 ACCEPTED = {
+    'phase/connecting/duration': BOOT,
+    'first/fcu/*/after connected': BOOT,
+    'rate/fcu/pre-stream/GLOBAL_POSITION_INT': BOOT,
+    'first/ros/*/after connected': 'the FCU\'s first HEARTBEAT is the anchor: ours comes at its boot, with the '
+                                   'bridge already up for 6 s, PX4\'s 1.0 s after its boot',
+    'rate/fcu/*/UNKNOWN_41[01]': 'PX4\'s events interface (EVENT 410, CURRENT_EVENT_SEQUENCE 411) is not '
+                                 'simulated: pymavlink 2.4.49 and our dialect lack both messages',
+    'param/ros/pull length': 'the simulator answers the 888-parameter list in about 0.45 s, PX4 SITL in 0.80 s',
+    'seq/fcu/comp 1/gaps per 1000': 'the reference\'s capture lost 0.05 % of PX4\'s frames on loopback; our '
+                                    'relay records every frame it is given',
+    'landed_state/fcu/4 #1/after last setpoint': 'PX4\'s failsafe return from 2 m over home holds about 3 s '
+                                                 'before it descends (LANDING 4.1 s after the last setpoint); '
+                                                 'ours descends at once (about 1.1 s)',
+}
+# Differences that come and go from run to run, with their reason: accepted, but not required.
+MAY_DIFFER = {
+    'rate/fcu/pre-stream/HOME_POSITION': BOOT + ' (0.5 Hz: a message more or less in the phase)',
+    'rate/*/connecting/*': 'the connecting phase lasts 0.01-0.07 s here (the node\'s first setpoint follows our '
+                           'first HEARTBEAT at once): its rates are counts over next to nothing',
+    'phase/pre-stream/duration': HEARTBEAT_PHASE,
+    'phase/OFFBOARD/duration': HEARTBEAT_PHASE,
+    'mode/fcu/* shown after': HEARTBEAT_PHASE,
+    'mode/fcu/*/after *': HEARTBEAT_PHASE,
+    'rate/fcu/*/PARAM_VALUE': 'the parameter pull (10 s after the connection) falls across the pre-stream and '
+                              'OFFBOARD boundary in the reference, which moves with the HEARTBEAT\'s phase, and '
+                              'the simulator sends the list faster (param/ros/pull length)',
+    'rate/fcu/landed/POSITION_TARGET_GLOBAL_INT': 'sent while the return lands and until the disarm: its rate over '
+                                                  'the landed phase moves with the touchdown\'s moment',
 }
 
 
@@ -39,7 +76,8 @@ class ConversationTest(OffboardTestCase):
                                      'real mavros + real PX4')
         ours = analysis.Summary(reading.read(path), 'our bridge + our simulator')
         differences = compare.compare(reference, ours)
-        left, accepted, unused = compare.split_accepted(differences, ACCEPTED)
+        left, accepted, unused = compare.split_accepted(differences, dict(MAY_DIFFER, **ACCEPTED))
+        unused = [pattern for pattern in unused if pattern in ACCEPTED]
         lines = report.phase_table([reference, ours]) + [''] + report.difference_table(
             left, accepted, title='differences of our stack from real mavros + real PX4 (%s)' % path)
         text = '\n'.join(lines)

@@ -233,10 +233,22 @@ def test_home_position_request_expects_its_ack():
     the cmd plugin (mavros's home_position asks through cmd/command and waits for it)."""
     rig = Rig(command.Command, home_position.HomePosition)
     rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED)
-    rig.bridge.set_connected(True)
-    rig.tick(110.0)  # the request's period after the rig's clock started
+    rig.tick(103.0)
+    rig.bridge.set_connected(True)  # mavros's poll timer starts with the connection
+    rig.tick(112.9)
+    assert rig.fcu.got('COMMAND_LONG') == [], 'not before 10 s after the connection'
+    rig.tick(113.0)
     assert [m.command for m in rig.fcu.got('COMMAND_LONG')] == [mavlink.MAV_CMD_GET_HOME_POSITION]
     assert rig.plugin.waiter.unexpected == 0
+
+
+def test_no_home_request_once_home_position_came():
+    rig = Rig(home_position.HomePosition)
+    rig.tick(103.0)
+    rig.bridge.set_connected(True)
+    rig.fcu.send(BUILD.home_position_encode(473977420, 85455940, 488000, 0, 0, 0, [1, 0, 0, 0], 0, 0, 0))
+    rig.tick(125.0)
+    assert rig.fcu.got('COMMAND_LONG') == [], 'PX4 streams HOME_POSITION: mavros never asks'
 
 
 def test_takeoff_carries_position_and_yaw():

@@ -1,6 +1,8 @@
 """mavros home_position: ~home_position/home (HomePosition, latched) from HOME_POSITION.
 
-While none has arrived, MAV_CMD_GET_HOME_POSITION is sent every 10 s, as mavros does.
+As mavros's poll timer (started on each connection, stopped by a HOME_POSITION): while none has
+arrived, MAV_CMD_GET_HOME_POSITION is sent 10 s after the connection and every 10 s after that. PX4
+streams HOME_POSITION at 0.5 Hz, so with PX4 none is sent (the recorded conversations have none).
 """
 
 from mavros_msgs.msg import HomePosition as HomePositionMsg
@@ -15,13 +17,19 @@ class HomePosition:
     def __init__(self, bridge):
         self.bridge = bridge
         self.received = False
+        self.next_request_s = None  # bridge clock; None while not connected
         self.pub = bridge.publisher('~home_position/home', HomePositionMsg, queue_size=2, latch=True)
         bridge.on('HOME_POSITION', self._on_home)
-        bridge.every(REQUEST_PERIOD_S, self._request)
+        bridge.on_connection(self._on_connection)
+        bridge.every(1.0, self._request)
 
-    def _request(self, _now_s):
+    def _on_connection(self, connected):
+        self.next_request_s = self.bridge.monotonic_s() + REQUEST_PERIOD_S if connected else None
+
+    def _request(self, now_s):
         b = self.bridge
-        if b.connected and not self.received:
+        if b.connected and not self.received and self.next_request_s is not None and now_s >= self.next_request_s:
+            self.next_request_s += REQUEST_PERIOD_S
             if b.commands is not None:  # mavros asks through cmd/command, which waits for the ACK
                 b.commands.expect(mavlink.MAV_CMD_GET_HOME_POSITION)
             b.send(b.mav.command_long_encode(b.target_system, b.target_component,

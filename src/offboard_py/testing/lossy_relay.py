@@ -9,7 +9,8 @@ With --control-port, a test acts on it when it wants, by a datagram to that port
   "cut SECONDS [both|to_fcu|to_bridge]"     cut one or both directions from now on;
   "drop P SECONDS [both|to_fcu|to_bridge]"  a burst of random loss: drop each datagram with
                                             probability P (0..1) from now on, on top of --drop;
-  "flush"                                   write out what --record holds so far.
+  "flush"                                   write out what --record holds and end the recording
+                                            (the relay goes on relaying), so the file is whole.
 With --record FILE, every datagram that arrives (before any loss) is written to FILE as a pcap
 stamped on the simulated clock (offboard_py.conversation.recording): the conversation of the link,
 as reference/conversations/ recorded real mavros and real PX4.
@@ -137,9 +138,12 @@ def main(argv=None):
             if control in readable:
                 text, addr = control.recvfrom(1000)
                 if text.strip() == b'flush':
-                    if recorder is not None:
-                        recorder.flush()
-                    control.sendto(b'ok' if recorder is not None else b'error: no --record', addr)
+                    if recorder is None:
+                        control.sendto(b'error: no --record, or already flushed', addr)
+                    else:
+                        recorder.close()
+                        recorder = None
+                        control.sendto(b'ok', addr)
                 else:
                     try:
                         command = parse_control(text.decode('ascii', 'replace'))
