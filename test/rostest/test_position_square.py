@@ -88,14 +88,20 @@ class PositionSquareTest(OffboardTestCase):
         return stamp - start
 
     def until_accepted(self, vehicle, what, ask, seen, timeout_s):
-        """ask() (a service call) once a second until its answer is a success, then seen() within
-        a state period, all within timeout_s."""
+        """ask() (a service call) until seen() holds within a state period of a successful answer,
+        within timeout_s: PX4 refuses a mode or the arming until it is ready (mavros's set_mode
+        answers mode_sent without waiting for PX4's verdict, so the state says it). The time of the
+        answer that took."""
         deadline = now() + timeout_s
         while now() < deadline:
             if ask():
-                self.wait_until(seen, STATE_PERIOD_S + 1.0, what, [vehicle])
-                return
-            self.pause(1.0)
+                answered = now()
+                while now() < answered + STATE_PERIOD_S + 1.0:
+                    if seen():
+                        return answered
+                    self.pause(0.05)
+            else:
+                self.pause(1.0)
         self.fail('%s not accepted within %.0f s (%s)' % (what, timeout_s, vehicle.describe()))
 
     def test_square(self):
