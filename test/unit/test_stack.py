@@ -113,6 +113,23 @@ def test_cross_stack_plan_runs_what_is_installed_and_says_why_not_the_rest():
     assert cross_stack.columns_found({'px4_dir': None, 'mavros': None, 'why': []}) == []
 
 
+def test_cross_stack_scenarios_are_the_registered_rostests_and_take_the_stack():
+    """Each scenario the tier flies is a .test in test/rostest, at the instance CMakeLists.txt registers it
+    with (so it never shares ports with another), and passes fcu:=/bridge:=/px4_dir: on to sim_vehicle.launch."""
+    import re
+    from offboard_py.testing import cross_stack
+    repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
+    with open(os.path.join(repo, 'CMakeLists.txt')) as f:
+        registered = {name: int(n) for name, n in re.findall(r'\b(\w+):(\d+)\b', f.read())}
+    for scenario, (test_file, instance, skips) in cross_stack.SCENARIOS.items():
+        with open(os.path.join(repo, 'test', 'rostest', test_file)) as f:
+            text = f.read()
+        assert registered.get(test_file[:-len('.test')]) == instance, (scenario, test_file, instance)
+        if cross_stack.ALL not in skips:
+            for arg in ('fcu', 'bridge', 'px4_dir'):
+                assert '<arg name="%s" value="$(arg %s)"/>' % (arg, arg) in text, (test_file, arg)
+
+
 def test_cross_stack_without_real_parts_is_one_line(capsys, tmp_path, monkeypatch):
     from offboard_py.testing import cross_stack
     monkeypatch.setenv('PX4_DIR', '')

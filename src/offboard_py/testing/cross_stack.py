@@ -39,13 +39,13 @@ SCENARIOS = collections.OrderedDict([
     ('offboard_loss', ('offboard_loss.test', 7, {})),
     ('stream_rate', ('stream_rate.test', 5, {})),
     ('respect_pilot', ('respect_pilot.test', 2, {})),
-    ('late_fcu', ('late_fcu.test', 8, {ALL: 'starts our simulator and our bridge by name, 8 s apart: not yet '
-                                            'written against sim_vehicle.launch\'s fcu:=/bridge:='})),
-    ('restarts', ('restarts.test', 12, {ALL: 'kills and restarts our simulator and bridge by process name: '
-                                             'not yet written for real PX4 and mavros processes'})),
-    ('mission', ('bridge.test', 6, {ALL: 'bridge.test checks our bridge against a silent FCU it starts itself; '
-                                         'a mission scenario of its own is not written yet'})),
-    ('position_square', (None, None, {ALL: 'no rostest scenario flies the position square yet'})),
+    ('late_fcu', ('late_fcu.test', 8, {})),
+    ('restarts', ('restarts.test', 12, {ALL: 'kills our simulator by its process name (sim_px4.py -i N) and has it '
+                                             'respawned, with our bridge\'s conn/timeout at 3 s: real PX4 (px4_sih.py, '
+                                             'required, never respawned) and mavros\'s px4.launch (conn/timeout from '
+                                             'its own config) are not yet written for'})),
+    ('mission', ('mission.test', 17, {})),
+    ('position_square', ('position_square.test', 18, {})),
 ])
 TIME_LIMIT_S = 600.0  # one rostest run, real time, real PX4 starting included
 
