@@ -32,6 +32,10 @@ from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quali
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
 SCALE_TARGET = 32  # vehicles on the development machine (2 cores)
 CLK_TCK = os.sysconf('SC_CLK_TCK')
+# Real mavros 1.21 and real PX4 SITL (SIH) hovering under the project's offb_node, % of one core, two runs each:
+# reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts" (stack A)
+MAVROS_CPU_PCT = (2.08, 2.33)
+PX4_SITL_CPU_PCT = (9.77, 11.08)
 
 
 class Watch:
@@ -67,10 +71,30 @@ class Watch:
             sub.unregister()
 
 
-def processes(n):
-    """pid of each process of the stack, by (vehicle, role)."""
+def parent_pid(pid):
+    try:
+        return int(open('/proc/%s/stat' % pid).read().rsplit(')', 1)[1].split()[1])
+    except (OSError, IndexError, ValueError):
+        return 0
+
+
+def descends_from(pid, ancestor):
+    """Whether process pid is ancestor's child, grandchild, ...: on a shared machine other launches' nodes
+    run in the same namespaces (uav0 ...) and must not be counted."""
+    pid = int(pid)
+    while pid > 1:
+        pid = parent_pid(pid)
+        if pid == ancestor:
+            return True
+    return False
+
+
+def processes(launch_pid):
+    """pid of each process of the stack started by the launch launch_pid, by (vehicle, role)."""
     found = {}
     for pid in filter(str.isdigit, os.listdir('/proc')):
+        if not descends_from(pid, launch_pid):
+            continue
         try:
             cmd = open('/proc/%s/cmdline' % pid, 'rb').read().split(b'\0')
             env = open('/proc/%s/environ' % pid, 'rb').read().split(b'\0')
@@ -167,7 +191,7 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
                 missing = [i for i, w in enumerate(watches) if 'hover' not in w.phases]
                 raise RuntimeError('vehicles %s not hovering after %.0f s' % (missing, startup_timeout_s))
             time.sleep(0.2)
-        pids = processes(n)
+        pids = processes(launch.pid)
         cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
         window = (now_ns(), time.monotonic())
         clock.sleep(duration_s)
@@ -353,6 +377,15 @@ def _measure(args, scale, logdir):
     for role in ('node', 'bridge', 'sim'):
         lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | | |'
                      % (role, fmt(single['cpu_pct'].get(role)), fmt(single['rss_mb'][role], 0)))
+    bridge = single['cpu_pct'].get('bridge')
+    if bridge is not None:
+        lines.append('| bridge / real mavros 1.21 (recorded %.2f-%.2f %%) | %.2f-%.2f | <= 1 | %s |'
+                     % (MAVROS_CPU_PCT + (bridge / MAVROS_CPU_PCT[1], bridge / MAVROS_CPU_PCT[0],
+                                          met(bridge <= MAVROS_CPU_PCT[0]))))
+    sim = single['cpu_pct'].get('sim')
+    if sim is not None:
+        lines.append('| sim / real PX4 SITL (recorded %.2f-%.2f %%) | %.2f-%.2f | | |'
+                     % (PX4_SITL_CPU_PCT + (sim / PX4_SITL_CPU_PCT[1], sim / PX4_SITL_CPU_PCT[0])))
     lines.append('| whole stack CPU per vehicle | %s %% | <= 5 %% | %s |' % (fmt(total), met(total <= 5.0)))
     lines.append('| start -> connected -> OFFBOARD -> armed -> hover (0.1 m) | %s / %s / %s / %s s | | |'
                  % tuple(fmt(ph.get(k)) for k in ('connected', 'offboard', 'armed', 'hover')))
@@ -371,7 +404,9 @@ def _measure(args, scale, logdir):
             break
         streams = [v['stream'] for v in vehicles]
         ok = all(st and st['p99_ms'] <= BAR_P99_MS and st['max_ms'] <= BAR_MAX_MS for st in streams)
-        step = {'n': n, 'worst_rate_hz': min(st['rate_hz'] for st in streams),
+        per_role = {role: sum(v['cpu_pct'].get(role) or 0 for v in vehicles) / n
+                    for role in ('node', 'bridge', 'sim')}
+        step = {'n': n, 'worst_rate_hz': min(st['rate_hz'] for st in streams), 'cpu_pct_per_vehicle': per_role,
                 'worst_p99_ms': max(st['p99_ms'] for st in streams), 'worst_max_ms': max(st['max_ms'] for st in streams),
                 'total_cpu_pct': sum(c or 0 for v in vehicles for c in v['cpu_pct'].values()), 'holds_bar': ok}
         steps.append(step)
@@ -381,17 +416,23 @@ def _measure(args, scale, logdir):
     result['scaling'] = steps
     result['largest_n_holding_bar'] = largest
     table = ['simulator framing: %s' % result['framing'], '',
-             '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) | bar |',
-             '|---|---|---|---|---|---|']
+             '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) '
+             '| per vehicle: node / bridge / sim (%) | bridge / real mavros | bar |',
+             '|---|---|---|---|---|---|---|---|']
     for st in steps:
         if 'error' in st:
-            table.append('| %d | failed: %s | | | | no |' % (st['n'], st['error']))
+            table.append('| %d | failed: %s | | | | | | no |' % (st['n'], st['error']))
         else:
-            table.append('| %d | %s | %s | %s | %s | %s |' % (st['n'], fmt(st['worst_rate_hz'], 2),
-                                                          fmt(st['worst_p99_ms']), fmt(st['worst_max_ms']),
-                                                          fmt(st['total_cpu_pct'], 0), 'yes' if st['holds_bar'] else 'no'))
+            role = st['cpu_pct_per_vehicle']
+            table.append('| %d | %s | %s | %s | %s | %s / %s / %s | %.2f-%.2f | %s |'
+                         % (st['n'], fmt(st['worst_rate_hz'], 2), fmt(st['worst_p99_ms']), fmt(st['worst_max_ms']),
+                            fmt(st['total_cpu_pct'], 0), fmt(role['node'], 2), fmt(role['bridge'], 2),
+                            fmt(role['sim'], 2), role['bridge'] / MAVROS_CPU_PCT[1], role['bridge'] / MAVROS_CPU_PCT[0],
+                            'yes' if st['holds_bar'] else 'no'))
     table.append('\nbar: every vehicle\'s setpoint stream, measured at its simulated PX4, has an inter-arrival '
                  'p99 <= %.0f ms and no gap over %.0f ms' % (BAR_P99_MS, BAR_MAX_MS))
+    table.append('bridge / real mavros: the bridge\'s CPU over real mavros 1.21\'s recorded %.2f-%.2f %% of one core '
+                 '(reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts")' % MAVROS_CPU_PCT)
     table.append('largest N holding the bar: %s (target: at least %d) %s'
                  % (largest, SCALE_TARGET, 'met' if (largest or 0) >= SCALE_TARGET else '**NOT MET**'))
     print('\n'.join(table), flush=True)

@@ -31,7 +31,8 @@ sys.path.insert(0, HERE)
 import benchmark  # noqa: E402  (bench/ is not a package)
 from offboard_py.tools.streamstats import latencies_ms, percentile  # noqa: E402
 
-MAVROS_CPU_PCT = (2.08, 2.33)  # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts"
+MAVROS_CPU_PCT = benchmark.MAVROS_CPU_PCT  # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts"
+
 CPU_TARGET_PCT = 2.0
 LATENCY_P99_MS = 2.0
 SETTLE_S = 10.0  # after connection: the parameter and mission pulls are over
