@@ -103,23 +103,6 @@ class MissionTest(OffboardTestCase):
         self.fail('mission/push of %d items not accepted within %.0f s: answers %r'
                   % (len(MISSION_BOX), timeout_s, answers))
 
-    def until_accepted(self, vehicle, what, ask, seen, timeout_s):
-        """ask() (a service call) until seen() holds within a state period of a successful answer,
-        within timeout_s: PX4 refuses a mode or the arming until it is ready (mavros's set_mode
-        answers mode_sent without waiting for PX4's verdict, so the state says it). The time of the
-        answer that took."""
-        deadline = now() + timeout_s
-        while now() < deadline:
-            if ask():
-                answered = now()
-                while now() < answered + STATE_PERIOD_S + 1.0:
-                    if seen():
-                        return answered
-                    self.pause(0.05)
-            else:
-                self.pause(1.0)
-        self.fail('%s not accepted within %.0f s (%s)' % (what, timeout_s, vehicle.describe()))
-
     def test_mission_box(self):
         vehicle = Vehicle('mavros')
         self.wait_for_connected(vehicle, 30.0)

@@ -31,7 +31,6 @@ LEGS_S = ((13.5, 13.5), (12.5, 13.0), (12.0, 12.5), (10.0, 16.5))
 WIDEN = 0.25
 SETPOINT_PERIOD_S = 0.05  # 20 Hz, as PX4's test and the tutorial stream
 PRE_STREAM_S = 2.0  # PX4 takes OFFBOARD only with setpoints already arriving
-STATE_PERIOD_S = 1.0  # mavros publishes mode and armed with each HEARTBEAT (1 Hz)
 DELIVERY_SLACK_S = 5.0  # simulated seconds a pose may come late on a busy machine at 5x (the leg is timed by stamp)
 MAX_POSE_LAG_S = 0.5  # beyond this the lateness is logged
 READY_S = 60.0  # PX4 SITL refuses arming until its estimator is ready
@@ -86,23 +85,6 @@ class PositionSquareTest(OffboardTestCase):
         if received - stamp > MAX_POSE_LAG_S:
             rospy.logwarn('the pose at corner %r came %.2f s after its stamp', corner, received - stamp)
         return stamp - start
-
-    def until_accepted(self, vehicle, what, ask, seen, timeout_s):
-        """ask() (a service call) until seen() holds within a state period of a successful answer,
-        within timeout_s: PX4 refuses a mode or the arming until it is ready (mavros's set_mode
-        answers mode_sent without waiting for PX4's verdict, so the state says it). The time of the
-        answer that took."""
-        deadline = now() + timeout_s
-        while now() < deadline:
-            if ask():
-                answered = now()
-                while now() < answered + STATE_PERIOD_S + 1.0:
-                    if seen():
-                        return answered
-                    self.pause(0.05)
-            else:
-                self.pause(1.0)
-        self.fail('%s not accepted within %.0f s (%s)' % (what, timeout_s, vehicle.describe()))
 
     def test_square(self):
         vehicle = Vehicle('mavros')

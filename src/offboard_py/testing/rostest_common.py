@@ -193,6 +193,23 @@ class OffboardTestCase(unittest.TestCase):
         seen = '; '.join(v.describe() for v in vehicles) or 'nothing'
         self.fail('%s did not happen within %.0f s. Seen: %s' % (what, timeout_s, seen))
 
+    def until_accepted(self, vehicle, what, ask, seen, timeout_s, state_period_s=1.0):
+        """ask() (a service call, True when it says it was sent) until seen() holds within a state
+        period (mavros's state follows the 1 Hz HEARTBEAT) and a second of a successful answer, at most
+        timeout_s: PX4 refuses a mode or the arming until it is ready, and mavros's set_mode answers
+        mode_sent without waiting for PX4's verdict, so the state says it. The time of the answer that took."""
+        deadline = now() + timeout_s
+        while now() < deadline:
+            if ask():
+                answered = now()
+                while now() < answered + state_period_s + 1.0:
+                    if seen():
+                        return answered
+                    self.pause(0.05)
+            else:
+                self.pause(1.0)
+        self.fail('%s not accepted within %.0f s (%s)' % (what, timeout_s, vehicle.describe()))
+
     def wait_for_connected(self, vehicle, timeout_s):
         # processes start in wall time whatever the speed: at 100x, 30 simulated seconds are 0.3 wall seconds
         self.wait_until(lambda: vehicle.state.connected, timeout_s, 'FCU connection', [vehicle],
