@@ -39,7 +39,9 @@ DEFAULT_HOME = (47.397742, 8.545594, 488.0)  # PX4 SITL's default home (Zurich)
 # PX4 SITL's ACKs come a few ms after the request and after what it sent for it (PROTOCOL_VERSION,
 # AVAILABLE_MODES: about 4 ms later; reference/px4-sitl-measured.md, "Turn 3 recordings", sections 3-4)
 ACK_DELAY_S = 0.004
-PARAM_LIST_BATCH = 20  # PARAM_VALUEs per loop step while answering PARAM_REQUEST_LIST
+# PARAM_VALUEs per 10 ms loop step while answering PARAM_REQUEST_LIST: PX4 SITL sent its 889 in 0.80 s
+# in the recorded conversations (reference/conversations: the pull from 11.0 to 11.8 s), 11 a step
+PARAM_LIST_BATCH = 11
 ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 # PX4's MavlinkCommandSender repeats a command it sent until acknowledged: recorded at +1.01, +1.53 and
@@ -377,7 +379,7 @@ class SimulatedPx4:
     def _on_param_request_list(self, msg):
         """The whole table on the requesting link, then _HASH_CHECK, as PX4, paced by the loop
         (PARAM_LIST_BATCH a step): all at once they overflow a client's socket buffer (a pymavlink
-        client on loopback got 785 of 887). 889 take about 0.45 s; PX4 SITL's take under 1 s. A new
+        client on loopback got 785 of 887). 889 take about 0.81 s, as PX4 SITL's 0.80 s. A new
         request for the same link starts the list again, as PX4 does."""
         if self._for_me(msg):
             self.param_lists[self.reply_link] = collections.deque(self.params.names + [sim_params.HASH_CHECK_NAME])
