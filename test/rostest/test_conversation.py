@@ -71,6 +71,7 @@ MAY_DIFFER = {
 
 
 class ConversationTest(OffboardTestCase):
+    maxDiff = None  # every difference in the failure message
 
     def test_conversation_as_the_real_stack(self):
         vehicle = Vehicle('mavros')
