@@ -16,7 +16,7 @@ import rospkg
 import rospy
 import rostest
 
-from offboard_py.conversation import analysis, compare, reading, report
+from offboard_py.conversation import analysis, compare, phases, reading, report
 from offboard_py.testing.conversation import fly_takeoff_and_record
 from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle
 
@@ -75,11 +75,13 @@ class ConversationTest(OffboardTestCase):
 
     def test_conversation_as_the_real_stack(self):
         vehicle = Vehicle('mavros')
-        fly_takeoff_and_record(self, vehicle, rospy.get_param('~control_port'),
-                               after_s=rospy.get_param('~after_s', 100.0))
+        after_s = rospy.get_param('~after_s', 100.0)
+        fly_takeoff_and_record(self, vehicle, rospy.get_param('~control_port'), after_s=after_s)
         path = rospy.get_param('~record')
-        reference = analysis.Summary(reading.read(os.path.join(rospkg.RosPack().get_path(PKG), REFERENCE)),
-                                     'real mavros + real PX4')
+        real = reading.read(os.path.join(rospkg.RosPack().get_path(PKG), REFERENCE))
+        # the reference over the same window as ours: up to after_s past its last setpoint (it ran 100 s)
+        end = phases.anchors(real)['last setpoint'] + after_s
+        reference = analysis.Summary([m for m in real if m.t <= end], 'real mavros + real PX4')
         ours = analysis.Summary(reading.read(path), 'our bridge + our simulator')
         differences = compare.compare(reference, ours)
         left, accepted, unused = compare.split_accepted(differences, dict(MAY_DIFFER, **ACCEPTED))
