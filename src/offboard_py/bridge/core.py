@@ -25,7 +25,6 @@ import time
 import rospy
 
 from offboard_py import wire
-from offboard_py.dialect import mavlink
 from offboard_py.bridge import filters
 from offboard_py.bridge.attitude import Attitude
 from offboard_py.bridge import scheduler
@@ -34,14 +33,11 @@ from offboard_py.bridge.scheduler import RETRY_DELAYS_S, TIMER_SLACK_S  # noqa: 
 
 WAIT_SLICE_S = 0.02  # wall seconds between looks at a deadline on the bridge's clock
 MAX_WAIT_S = 0.2     # the receive loop's longest sleep in real time (how soon it sees stop())
-# While the FCU streams (PX4: about 400 datagrams a second, one message each), the receive loop reads
-# what has come every DRAIN_S of wall time instead of waking for each datagram: a wake-up costs the
-# process more than the datagram it brings (bench/replay_bench.py). Under mavros's and PX4's TIMESYNC
-# round-trip limit (10 ms), so the answers to the FCU's requests stay usable ...
-DRAIN_S = 0.004
-# ... and for PROMPT_S after the bridge asks for a TIMESYNC it wakes for each datagram again, so the
-# FCU's answer is read as it comes and the round trip measured is the link's.
-PROMPT_S = 0.010
+# The receive loop waits on poll() and reads everything that has come when it wakes. Reading on a
+# timer instead (every 4 ms while the FCU streams) woke the bridge more often on PX4's stream, not less:
+# 324-326 wake-ups/s and 4.7-5.3 % of a core against 259-265 and 4.0-4.5 % (bench --replay, alternated,
+# idle 2-core VM, 2026-11-25; bench/results/2026-11-25-bridge-cost.md): a poll often finds several
+# datagrams waiting, a timed sleep always sleeps.
 
 class Bridge:
     def __init__(self, cfg, link, ros, plugins=(), gcs=None, clock=time.monotonic):
@@ -60,7 +56,6 @@ class Bridge:
         self._ros = ros
         self._clock = clock
         self.scheduler = scheduler.Scheduler(clock, rospy.logerr)  # every(), after_connect(): run_due()
-        self._prompt_until_s = 0.0  # monotonic: until then the loop wakes for each datagram (PROMPT_S)
         self.connection_epoch = 0  # counts connections: a retry loop ends with its own
         self.connected = False
         self._connection_listeners = []
@@ -110,8 +105,6 @@ class Bridge:
 
     def send(self, msg):
         """Send to the FCU, in a datagram of its own as mavros does; False while its address is unknown."""
-        if msg.get_msgId() == mavlink.MAVLINK_MSG_ID_TIMESYNC and msg.tc1 == 0:  # a round trip to time: read the answer at once
-            self._prompt_until_s = time.monotonic() + PROMPT_S
         return self.link.send(msg)
 
     def send_frame(self, frame):
@@ -255,35 +248,25 @@ class Bridge:
 
     def _loop(self):
         """Wake when a datagram comes or a task is due, not on a fixed tick: each wake-up of the
-        process costs about as much as handling a datagram. While datagrams keep coming, read them
-        every DRAIN_S instead (PROMPT_S after a TIMESYNC request excepted); once a DRAIN_S passes
-        without one, wait for the next again. Under simulated time the bridge's clock is ROS time,
-        whose seconds are not the wall's, so a wait is at most a short wall slice there."""
+        process costs about as much as handling a datagram, and a wake-up reads all that has come.
+        Under simulated time the bridge's clock is ROS time, whose seconds are not the wall's, so a
+        wait is at most a short wall slice there."""
         poller = select.poll()
         links = {}
         for link in [self.link] + ([self.gcs] if self.gcs else []):
             links[link.fileno()] = link
             poller.register(link.fileno(), select.POLLIN)
-        all_links = list(links.values())
         longest_wait_s = MAX_WAIT_S if self._clock is time.monotonic else WAIT_SLICE_S
         due_s = None  # the next wake-up the tasks need (bridge clock), worked out again after they run
-        streaming = False
         while self._running and not self.is_shutdown():
             if due_s is None or self.scheduler.added:
                 due_s = self.scheduler.next_due_s()
             wait_s = longest_wait_s if due_s is None else min(longest_wait_s, max(0.0, due_s - self._clock()))
             try:
-                if streaming and time.monotonic() >= self._prompt_until_s:
-                    time.sleep(min(DRAIN_S, wait_s))
-                    ready = all_links
-                else:
-                    ready = [links[fd] for fd, _ in poller.poll(wait_s * 1000.0)]
-                received = 0
-                for link in ready:
-                    received += link.receive()
+                for fd, _ in poller.poll(wait_s * 1000.0):
+                    links[fd].receive()
             except (OSError, ValueError):
                 break  # sockets closed at shutdown
-            streaming = received > 0
             # most wake-ups are a datagram's: the tasks are looked at only once one is due
             now_s = self._clock()
             if due_s is not None and now_s >= due_s - TIMER_SLACK_S:
