@@ -230,7 +230,7 @@ def test_force_disarm_magic_in_the_air():
 # -- PX4's flight model: the pieces the flight fit (test/sim/test_flight_fit.py) rests on ---------
 
 def test_land_speeds_are_px4s():
-    from offboard_py.sim.navigator import land_speed
+    from offboard_py.sim.flyer import land_speed
     p = ParamStore()
     assert land_speed(p, 20.0) == p['MPC_Z_V_AUTO_DN'] == 1.5
     assert land_speed(p, 7.5) == pytest.approx((1.5 + 0.7) / 2), 'blends between MPC_LAND_ALT1 and ALT2'

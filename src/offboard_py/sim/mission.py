@@ -7,7 +7,7 @@ request, INT or legacy), MISSION_CLEAR_ALL and MISSION_SET_CURRENT. Requests are
 repeated when an item does not come, and the transfer is abandoned after a few tries.
 Every mission type (mission, fence, rally) is stored; only the mission is flown.
 
-Flying the items is the navigator's job (sim.navigator.MissionRunner).
+Flying the items is the navigator's job (sim.mission_runner.MissionRunner).
 """
 
 from collections import namedtuple

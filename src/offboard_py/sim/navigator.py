@@ -7,10 +7,10 @@
 - AUTO.RTL, PX4's direct return: climb to the return altitude (RTL_RETURN_ALT above home,
   lower inside the RTL_CONE_ANG cone within RTL_MIN_DIST, never lower than now), return home at
   MPC_XY_CRUISE, descend to RTL_DESCEND_ALT, land.
-- AUTO.LAND: descend where the mode began at PX4's landing speeds (`land_speed`).
-- AUTO.MISSION: fly the mission items (`MissionRunner`), reporting reached items; waypoints
+- AUTO.LAND: descend where the mode began at PX4's landing speeds (sim.flyer.land_speed).
+- AUTO.MISSION: fly the mission items (sim.mission_runner), reporting reached items; waypoints
   are reached within NAV_ACC_RAD / NAV_MC_ALT_RAD and passed at PX4's corner speed.
-Flights between points follow PX4's jerk-limited trajectory (sim.trajectory).
+Flights between points follow PX4's jerk-limited trajectory (sim.flyer, sim.trajectory).
 Altitudes are relative to `home` (local NED), which the flight stack sets at arming.
 Pure: the vehicle model and the time are passed in; what must be said goes to `events`.
 It neither decides modes (the commander does) nor flies (the vehicle model does).
@@ -21,57 +21,14 @@ import math
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import vehicle as vm
-from offboard_py.sim.trajectory import Trajectory, corner_speed
+from offboard_py.sim.flyer import Flyer, land_setpoint, land_speed
+from offboard_py.sim.mission_runner import MissionRunner
 
 
-NAV_COMMANDS = frozenset((mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME,
-                          mavlink.MAV_CMD_NAV_LOITER_UNLIM, mavlink.MAV_CMD_NAV_LAND,
-                          mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH))
-ABSOLUTE_FRAMES = frozenset((mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_INT))
-
-
-def _dist_xy(a, b):
-    return math.hypot(a[0] - b[0], a[1] - b[1])
-
-
-def land_speed(params, height):
-    """PX4's landing speed at `height` above the ground: MPC_Z_V_AUTO_DN above MPC_LAND_ALT1,
-    blending to MPC_LAND_SPEED at MPC_LAND_ALT2, MPC_LAND_CRWL below MPC_LAND_ALT3 (the
-    rangefinder sees the ground there)."""
-    fast, slow = params['MPC_Z_V_AUTO_DN'], params['MPC_LAND_SPEED']
-    alt1, alt2 = params['MPC_LAND_ALT1'], params['MPC_LAND_ALT2']
-    if height >= alt1:
-        speed = fast
-    elif height <= alt2 or alt1 <= alt2:
-        speed = slow
-    else:
-        speed = slow + (fast - slow) * (height - alt2) / (alt1 - alt2)
-    if height < params['MPC_LAND_ALT3']:
-        speed = min(speed, params['MPC_LAND_CRWL'])
-    return min(speed, fast)
-
-
-# Once the land detector feels the ground, PX4's landing keeps asking for more descent (its descent
-# setpoint grows while the vehicle stands still: reference/conversations, takeoff-mavros-px4,
-# POSITION_TARGET_LOCAL_NED at 63.5-64.5 s), which winds the thrust down to the land detector's
-# minimal thrust (MINIMAL_THRUST_FRACTION, PX4's 10 %). The rate is fitted to the AUTO landings of
-# reference/px4-sitl-measured.md (NAV_LAND from 2.2 m: 12.8 s; cmd/land from 5 m: 15.3 s): with it
-# touchdown -> landed takes about 6 s after a slow final descent. The recorded RTL landings of the
-# conversations took 3.3-3.5 s (a faster touchdown, a faster-growing setpoint); one rate cannot fit both.
-LAND_PUSH_ACC = 0.03  # m/s^2
 # The gimbal commands of a return left 0.16-0.4 s after its setpoint took over (reference/conversations:
 # POSITION_TARGET_LOCAL_NED changed at 56.36-56.46 s and 56.76-56.96 s, COMMAND_LONG 1001 at 56.62 and 57.17 s),
 # 1.29-1.37 s after the last setpoint
 GIMBAL_DELAY_S = 0.25
-
-
-def land_setpoint(params, xy, vehicle):
-    """Descend over xy at PX4's landing speeds; on the ground, push down harder (LAND_PUSH_ACC)."""
-    speed = land_speed(params, vehicle.height())
-    pushed_s = vehicle.ground_contact_held_s()
-    if pushed_s is not None:
-        speed += LAND_PUSH_ACC * pushed_s
-    return vm.setpoint(position=(xy[0], xy[1], vm.NAN), velocity=(vm.NAN, vm.NAN, speed), yaw=vehicle.yaw)
 
 
 def rtl_return_height(params, distance):
@@ -126,164 +83,6 @@ def rtl_time_estimate(params, position, home, landed, rtl=None):
             return time_s
         time_s += params['RTL_LAND_DELAY']
     return time_s + max(0.0, height) / down_speed
-
-
-class Flyer:
-    """What AUTO modes share: the trajectory towards a target, restarted from the vehicle's own
-    state whenever the flight stops following it (a direct setpoint came in between)."""
-
-    def __init__(self, params):
-        self.params = params
-        self.trajectory = None
-        self._last_s = None
-
-    def direct(self, sp):
-        """A setpoint that does not follow the trajectory."""
-        self.trajectory = None
-        return sp
-
-    def fly_to(self, vehicle, target, now_s, speed_at_target=0.0, xy_speed=None, up_speed=None):
-        dt = 0.0 if self._last_s is None else max(0.0, now_s - self._last_s)
-        self._last_s = now_s
-        if self.trajectory is None:
-            self.trajectory = Trajectory(vehicle.position, vehicle.velocity)
-            dt = 0.0
-        t = self.trajectory
-        t.step(self.params, target, dt, vehicle.position, xy_speed=xy_speed, up_speed=up_speed,
-               speed_at_target=speed_at_target)
-        return vm.setpoint(position=t.position, velocity=t.velocity, acceleration=t.acceleration, yaw=vehicle.yaw)
-
-    def take_off(self, vehicle, target, now_s):
-        """PX4's takeoff: straight at the target while the takeoff ramp limits the climb, then the
-        trajectory at MPC_TKO_SPEED (which brakes early for a low target)."""
-        if vehicle.takeoff_state != 'flight':
-            return self.direct(vm.setpoint(position=target, yaw=vehicle.yaw, z_up_max=self.params['MPC_TKO_SPEED']))
-        return self.fly_to(vehicle, target, now_s, up_speed=self.params['MPC_TKO_SPEED'])
-
-
-class MissionRunner:
-    """Flies mission items: NAV_TAKEOFF, NAV_WAYPOINT (acceptance radius, hold time), NAV_LOITER_TIME,
-    NAV_LOITER_UNLIM, NAV_LAND and NAV_RETURN_TO_LAUNCH; other items (DO_*) are passed over."""
-
-    def __init__(self, params, frame):
-        self.params, self.frame = params, frame
-        self.flyer = Flyer(params)
-        self.home = (0.0, 0.0, 0.0)
-        self.items = []
-        self.seq = 0
-        self.reached = []        # seq numbers reached since the last take_reached()
-        self.finished = False
-        self._arrived_s = None   # when the current item's position was reached
-        self._hold_point = None
-        self._takeoff_xy = None
-        self._previous = None    # where the flight to the current item began (for corner speeds)
-        self.landed_at_end = False  # the mission ended with a landing, and the vehicle is down
-
-    def load(self, items, seq=0):
-        self.items, self.seq, self.finished, self.landed_at_end = list(items), seq, False, False
-        self._arrived_s = self._hold_point = self._takeoff_xy = self._previous = None
-
-    def set_current(self, seq):
-        if 0 <= seq < len(self.items):
-            self.seq, self.finished, self._arrived_s, self.landed_at_end = seq, False, None, False
-            return True
-        return False
-
-    def restart_if_finished(self):
-        self.set_current(self.seq if not self.finished else 0)
-
-    def take_reached(self):
-        reached, self.reached = self.reached, []
-        return reached
-
-    def _target(self, it, vehicle):
-        """Local NED target of a positional item (the vehicle's own where the item leaves it open)."""
-        if it.frame == mavlink.MAV_FRAME_LOCAL_NED:
-            return (it.x, it.y, it.z)
-        if it.frame == mavlink.MAV_FRAME_MISSION:
-            return tuple(vehicle.position)
-        if it.x == 0.0 and it.y == 0.0:  # no position given: here
-            north, east = vehicle.position[0], vehicle.position[1]
-        else:
-            north, east, _ = self.frame.to_local(it.x, it.y, self.frame.alt0)
-        if it.frame in ABSOLUTE_FRAMES:
-            down = self.frame.alt0 - it.z
-        else:  # relative to home (terrain frames are treated as relative: flat ground)
-            down = self.home[2] - it.z
-        return (north, east, down)
-
-    def _next_target(self, vehicle):
-        """The position of the next positional item after the current one, or None."""
-        for it in self.items[self.seq + 1:]:
-            if it.command in (mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LAND):
-                return self._target(it, vehicle)
-            if it.command in NAV_COMMANDS:
-                return None
-        return None
-
-    def _advance(self, vehicle=None):
-        self.reached.append(self.seq)
-        self._arrived_s = None
-        if vehicle is not None:
-            it = self.items[self.seq]
-            self._previous = self._target(it, vehicle) if it.command != mavlink.MAV_CMD_NAV_TAKEOFF \
-                else tuple(vehicle.position)
-        if self.seq + 1 < len(self.items):
-            self.seq += 1
-        else:
-            self.finished = True
-
-    def setpoint(self, vehicle, now_s):
-        """The setpoint for now; reached items are recorded in `reached`."""
-        p = self.params
-        for _ in range(len(self.items)):  # pass over DO_* items in one go
-            if self.finished or not self.items or self.items[self.seq].command in NAV_COMMANDS:
-                break
-            self._advance()
-        if self.finished or not self.items:
-            if self._hold_point is None:
-                self._hold_point = tuple(vehicle.position)
-            return self.flyer.direct(vm.hold(self._hold_point, vehicle.yaw))
-        self._hold_point = None
-        it = self.items[self.seq]
-        pos = vehicle.position
-        if it.command == mavlink.MAV_CMD_NAV_TAKEOFF:
-            target = self._target(it, vehicle)
-            if self._takeoff_xy is None:
-                self._takeoff_xy = (pos[0], pos[1])
-            north, east = self._takeoff_xy
-            down = target[2] if target[2] < self.home[2] - 0.5 else self.home[2] - p['MIS_TAKEOFF_ALT']
-            if abs(pos[2] - down) <= p['NAV_MC_ALT_RAD']:
-                self._takeoff_xy = None
-                self._advance(vehicle)
-            return self.flyer.take_off(vehicle, (north, east, down), now_s)
-        if it.command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return self._fly_then_land((self.home[0], self.home[1]), vehicle, now_s)
-        target = self._target(it, vehicle)
-        if it.command == mavlink.MAV_CMD_NAV_LAND:
-            return self._fly_then_land(target, vehicle, now_s)
-        radius = it.param2 if it.command == mavlink.MAV_CMD_NAV_WAYPOINT and it.param2 > 0 else p['NAV_ACC_RAD']
-        hold_s = max(it.param1, 0.0) if it.command in (mavlink.MAV_CMD_NAV_WAYPOINT,
-                                                         mavlink.MAV_CMD_NAV_LOITER_TIME) else None
-        corner = 0.0 if hold_s is None or hold_s > 0.0 else corner_speed(p, self._previous, target,
-                                                                         self._next_target(vehicle))
-        if self._arrived_s is None and (_dist_xy(pos, target) <= radius
-                                        and abs(pos[2] - target[2]) <= p['NAV_MC_ALT_RAD']):
-            self._arrived_s = now_s
-        if self._arrived_s is not None and hold_s is not None and now_s - self._arrived_s >= hold_s:
-            self._advance(vehicle)
-        return self.flyer.fly_to(vehicle, target, now_s, speed_at_target=corner)
-
-    def _fly_then_land(self, target, vehicle, now_s):
-        pos = vehicle.position
-        if _dist_xy(pos, target) > self.params['NAV_ACC_RAD'] and not vehicle.landed:
-            return self.flyer.fly_to(vehicle, (target[0], target[1], pos[2] if self.flyer.trajectory is None
-                                               else self.flyer.trajectory.position[2]), now_s)
-        if vehicle.landed:
-            self._advance()
-            self.finished = self.landed_at_end = True
-            return self.flyer.direct(vm.hold((target[0], target[1], vehicle.ground_z), vehicle.yaw))
-        return self.flyer.direct(land_setpoint(self.params, target, vehicle))
 
 
 class NavigatorMode:
