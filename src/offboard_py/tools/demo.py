@@ -91,6 +91,11 @@ def stack_label(launch_args):
     return stack.describe(given.get('fcu', 'sim'), given.get('bridge', 'ours'))
 
 
+def plot_title(label):
+    """The plot's title: which stack flew."""
+    return 'offboard_py takeoff demo: offb_node -> %s' % label.replace(' + ', ' -> ')
+
+
 def plot(recorder, path, label='our mavros-compatible bridge + our simulated PX4'):
     import matplotlib
     matplotlib.use('Agg')
@@ -105,13 +110,13 @@ def plot(recorder, path, label='our mavros-compatible bridge + our simulated PX4
                 label='setpoint z (ENU)')
     ax.plot([t for t, _ in alt], [z for _, z in alt], color='tab:blue', label='altitude z (ENU)')
     top = max([z for _, z in alt + sp] + [1.0])
-    for t, label in events:
+    for t, event in events:
         ax.axvline(t, color='grey', linestyle=':')
-        ax.text(t, top * 0.05, label + ' ', rotation=90, va='bottom', ha='right', fontsize=8)
+        ax.text(t, top * 0.05, event + ' ', rotation=90, va='bottom', ha='right', fontsize=8)
     ax.set_xlabel('time since start (s)')
     ax.set_ylabel('altitude (m)')
     ax.set_ylim(min(-0.1, min([z for _, z in alt] + [0.0])), top * 1.2)
-    ax.set_title('offboard_py takeoff demo: offb_node -> %s' % label.replace(' + ', ' -> '), fontsize=10)
+    ax.set_title(plot_title(label), fontsize=10)
     ax.grid(True, alpha=0.3)
     ax.legend(loc='lower right')
     fig.tight_layout()
