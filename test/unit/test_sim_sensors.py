@@ -21,9 +21,10 @@ from offboard_py.sim.main import parser
 from offboard_py.sim.param_store import ParamRejected, ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
+from offboard_flight import DT, OffboardFlight
+
 M = mavlink
 FRAME = LocalFrame(47.397742, 8.545594, 488.0)
-DT = 0.01
 TOLERANCE = 0.1
 STEP_S = DT  # ATTITUDE's resolution here: one simulator step
 
@@ -69,27 +70,12 @@ def position_setpoint(north, east, down):
                                             (0, 0, 0), (0, 0, 0), 0.0, 0.0, 0.0)
 
 
-class Run:
+class Run(OffboardFlight):
     """A Flight on a simulated clock with a 20 Hz offboard companion, and what telemetry builds."""
 
     def __init__(self, ideal=False, seed=None):
-        self.flight = Flight(ParamStore({}), FRAME, 0.0, ready_delay_s=0.0, ideal=ideal, seed=seed)
+        super().__init__(ParamStore({}), FRAME, ideal=ideal, seed=seed)
         self.builder = telemetry.TelemetryBuilder(M.MAVLink(None, srcSystem=1), FRAME, self.flight.params)
-        self.t = 0.0
-        self.setpoint = None
-        self._next_setpoint_s = 0.0
-
-    def step(self):
-        if self.setpoint is not None and self.t >= self._next_setpoint_s - 1e-9:
-            self.flight.on_offboard_setpoint(self.setpoint, self.t)
-            self._next_setpoint_s = self.t + 0.05
-        self.t += DT
-        self.flight.step(self.t, DT)
-        return self.flight.status(self.t)
-
-    def run(self, seconds):
-        for _ in range(int(round(seconds / DT))):
-            self.step()
 
     def messages(self, seconds, name):
         out = []
@@ -208,7 +194,7 @@ def fly_step(run):
     first new setpoint."""
     run.hover()
     run.setpoint = position_setpoint(30.0, 0.0, -2.0)
-    run._next_setpoint_s = run.t  # sent with the next step
+    run.next_setpoint_s = run.t  # sent with the next step
     t0 = run.t
     rows = []
     for _ in range(int(round(8.0 / DT))):

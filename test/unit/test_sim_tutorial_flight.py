@@ -6,14 +6,13 @@ what HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE say around the disarm."""
 
 from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input
-from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
+from offboard_flight import SETPOINT_PERIOD_S, OffboardFlight
+
 M = mavlink
-DT = 0.01
-SETPOINT_PERIOD_S = 0.05  # the tutorial's 20 Hz
 # arm command -> EXTENDED_SYS_STATE landed_state IN_AIR: 17.970 - 16.109 s and 18.014 - 16.039 s
 ARM_TO_IN_AIR_S = (1.86, 1.98)
 # landed_state ON_GROUND -> disarmed (SYS_STATUS loses PREARM_CHECK with OFFBOARD back and no
@@ -22,36 +21,13 @@ LANDED_TO_DISARMED_S = (2.03, 2.02)
 OFFBOARD = 0x00060000
 
 
-class Tutorial:
+class Tutorial(OffboardFlight):
     """The tutorial's node against a Flight: setpoints at 20 Hz, OFFBOARD, arm."""
 
     def __init__(self):
-        self.flight = Flight(ParamStore(), LocalFrame(47.397742, 8.545594, 488.0), 0.0, ready_delay_s=0.0)
-        self.t = 0.0
-        self.streaming = True
-        self._next_s = 0.0
+        super().__init__(ParamStore(), LocalFrame(47.397742, 8.545594, 488.0))
         self.setpoint = offboard_input.offboard_setpoint(M.MAV_FRAME_LOCAL_NED, POSITION_AND_YAW, (0.0, 0.0, -2.0),
                                                          (0, 0, 0), (0, 0, 0), 0.0, 0.0, 0.0)
-
-    def step(self):
-        if self.streaming and self.t >= self._next_s - 1e-9:
-            self.flight.on_offboard_setpoint(self.setpoint, self.t)
-            self._next_s = self.t + SETPOINT_PERIOD_S
-        self.t += DT
-        self.flight.step(self.t, DT)
-        return self.flight.status(self.t)
-
-    def run(self, seconds):
-        for _ in range(int(round(seconds / DT))):
-            self.step()
-
-    def until(self, condition, timeout_s, what):
-        start = self.t
-        while self.t - start < timeout_s:
-            st = self.step()
-            if condition(st):
-                return self.t - start
-        raise AssertionError('no %s within %.0f s: %s' % (what, timeout_s, self.flight.status(self.t)))
 
     def armed_in_offboard(self):
         self.run(1.0)
@@ -124,7 +100,7 @@ def failsafe_flight():
     tut.until(lambda st: st.position[2] <= -1.9, 15.0, 'climb to 1.9 m')
     tut.run(10.0)
     tut.streaming = False
-    last_setpoint_s = tut._next_s - SETPOINT_PERIOD_S
+    last_setpoint_s = tut.next_setpoint_s - SETPOINT_PERIOD_S
     commands, landed_s = [], None
     tut.texts = [e for e in tut.flight.take_events() if type(e).__name__ == 'StatusText']
     while tut.flight.status(tut.t).armed and tut.t < 200.0:
