@@ -16,11 +16,10 @@ import os
 import socket
 import time
 
-from offboard_py.testing.sim_client import ACCEPTED, DENIED, FAILED, UNSUPPORTED, Client
-
 from offboard_py.dialect import FAILURE_TYPE_OFF, FAILURE_TYPE_OK, FAILURE_UNIT_SENSOR_GYRO, MAV_CMD_INJECT_FAILURE
 from offboard_py.dialect import mavlink
 from offboard_py.mavlink_link import MAVROS_MAX_DATAGRAM
+from offboard_py.testing.sim_client import ACCEPTED, DENIED, FAILED, UNSUPPORTED, Client
 
 REFERENCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'reference')
 # PX4's event interface (EVENT 410, CURRENT_EVENT_SEQUENCE 411): its texts live in PX4's own event

@@ -11,13 +11,12 @@ import socket
 
 from pymavlink.dialects.v10 import common as mavlink1
 
-from offboard_py.testing.sim_client import ACCEPTED
-
 from offboard_py import px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC
 from offboard_py.dialect import mavlink as mavlink2
 from offboard_py.testing import mavlink_fuzz, ports
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
+from offboard_py.testing.sim_client import ACCEPTED
 
 FRAMES = mavlink_fuzz.frame_count()
 ARM, SET_MODE = mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, mavlink2.MAV_CMD_DO_SET_MODE

@@ -6,9 +6,9 @@ SYS_STATUS say around a disarm. Seconds are simulated ones (the client's clock, 
 
 import os
 
-from offboard_py.testing.sim_client import ACCEPTED, DENIED, TEMPORARILY_REJECTED
-
 from offboard_py.dialect import mavlink
+from offboard_py.testing import measured_tables
+from offboard_py.testing.sim_client import ACCEPTED, DENIED, TEMPORARILY_REJECTED
 
 FAST = ('--ready-delay', '1')
 MEASURED = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'reference', 'px4-sitl-measured.md')
@@ -24,25 +24,9 @@ TOLERANCE = 0.10
 
 
 def recorded_available_modes():
-    """{mode_index: (custom_mode, standard_mode, properties, mode_name)} from the recording's table
-    (section 3); the 19..26 row expands to its eight modes."""
-    text = open(MEASURED).read()
-    section = text[text.index('### 3. AVAILABLE_MODES'):text.index('### 4.')]
-    modes = {}
-    for line in section.splitlines():
-        cells = [c.strip() for c in line.strip().strip('|').split('|')]
-        if len(cells) != 6 or not cells[1].startswith('0x'):
-            continue
-        standard, properties = int(cells[3].split()[0]), int(cells[4])
-        name = '' if cells[5] == '(empty)' else cells[5]
-        if '..' in cells[0]:
-            first, last = (int(n) for n in cells[0].split('..'))
-            start = int(cells[1].split('..')[0], 16)
-            for n in range(last - first + 1):
-                modes[first + n] = (start + (n << 24), standard, properties, name)
-        else:
-            modes[int(cells[0])] = (int(cells[1], 16), standard, properties, name)
-    return modes
+    """{mode_index: (custom_mode, standard_mode, properties, mode_name)} from the recording's table (section 3)."""
+    return {index: (custom, standard, properties, name)
+            for index, custom, _, standard, properties, name in measured_tables.available_modes(MEASURED)}
 
 
 def since(client, start, *types):

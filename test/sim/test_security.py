@@ -10,9 +10,8 @@ import time
 from pymavlink.dialects.v10 import common as mavlink1
 from pymavlink.dialects.v20 import development as mavlink2
 
-from offboard_py.testing.sim_client import ACCEPTED
-
 from offboard_py.dialect import mavlink
+from offboard_py.testing.sim_client import ACCEPTED
 
 ARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
 GCS_COMPONENT = mavlink.MAV_COMP_ID_MISSIONPLANNER

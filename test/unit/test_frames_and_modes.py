@@ -7,6 +7,7 @@ import pytest
 
 from offboard_py import frames, px4_modes
 from offboard_py.dialect import mavlink
+from offboard_py.testing import measured_tables
 
 CUSTOM = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 
@@ -83,25 +84,8 @@ MEASURED = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.
 
 
 def recorded_available_modes():
-    """[(mode_index, custom_mode, PX4 mode, standard_mode, properties, mode_name)] from the recording's
-    table; the 19..26 row expands to its eight external modes."""
-    text = open(MEASURED).read()
-    section = text[text.index('### 3. AVAILABLE_MODES'):text.index('### 4.')]
-    rows = []
-    for line in section.splitlines():
-        cells = [c.strip() for c in line.strip().strip('|').split('|')]
-        if len(cells) != 6 or not cells[1].startswith('0x'):
-            continue
-        standard, properties = int(cells[3].split()[0]), int(cells[4])
-        name = '' if cells[5] == '(empty)' else cells[5]
-        if '..' in cells[0]:
-            first, last = (int(n) for n in cells[0].split('..'))
-            start = int(cells[1].split('..')[0], 16)
-            for n in range(last - first + 1):
-                rows.append((first + n, start + (n << 24), 'AUTO.EXTERNAL%d' % (n + 1), standard, properties, name))
-        else:
-            rows.append((int(cells[0]), int(cells[1], 16), cells[2], standard, properties, name))
-    return rows
+    """[(mode_index, custom_mode, PX4 mode, standard_mode, properties, mode_name)] from the recording's table."""
+    return measured_tables.available_modes(MEASURED)
 
 
 def test_available_modes_are_px4_sitls_26_in_its_order():
