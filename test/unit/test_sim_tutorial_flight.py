@@ -29,6 +29,13 @@ class Tutorial(OffboardFlight):
         self.setpoint = offboard_input.offboard_setpoint(M.MAV_FRAME_LOCAL_NED, POSITION_AND_YAW, (0.0, 0.0, -2.0),
                                                          (0, 0, 0), (0, 0, 0), 0.0, 0.0, 0.0)
 
+    def hover_then_stop(self):
+        """Armed in OFFBOARD, climbed to 1.9 m, 10 s of hover, then the setpoints end (the failsafe)."""
+        self.armed_in_offboard()
+        self.until(lambda st: st.position[2] <= -1.9, 15.0, 'climb to 1.9 m')
+        self.run(10.0)
+        self.streaming = False
+
     def armed_in_offboard(self):
         self.run(1.0)
         assert self.flight.request_mode('OFFBOARD', self.t) == M.MAV_RESULT_ACCEPTED
@@ -60,10 +67,7 @@ def test_a_disarm_1_9_s_after_an_offboard_arm_is_temporarily_rejected_and_the_cl
 
 def test_after_the_failsafe_landing_px4_disarms_and_reports_offboard_uninit_and_no_prearm():
     tut = Tutorial()
-    tut.armed_in_offboard()
-    tut.until(lambda st: st.position[2] <= -1.9, 15.0, 'climb to 1.9 m')
-    tut.run(10.0)
-    tut.streaming = False
+    tut.hover_then_stop()
     states, landed_s = [tut.flight.status(tut.t).landed_state], None
     while tut.flight.status(tut.t).armed:
         st = tut.step()
@@ -96,10 +100,7 @@ NAN_PARAM = float('nan')
 def failsafe_flight():
     """The tutorial until disarmed; the navigator's vehicle commands with their times."""
     tut = Tutorial()
-    tut.armed_in_offboard()
-    tut.until(lambda st: st.position[2] <= -1.9, 15.0, 'climb to 1.9 m')
-    tut.run(10.0)
-    tut.streaming = False
+    tut.hover_then_stop()
     last_setpoint_s = tut.next_setpoint_s - SETPOINT_PERIOD_S
     commands, landed_s = [], None
     tut.texts = [e for e in tut.flight.take_events() if type(e).__name__ == 'StatusText']

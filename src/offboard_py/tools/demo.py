@@ -170,6 +170,14 @@ def _stop(proc, timeout_s=15.0):
         proc.wait()
 
 
+def said_launch_ended(launch, log_path, what):
+    """Say that roslaunch ended (`what` % its exit code), where its log is and what it said last; 1."""
+    print((what + '; see %s') % (launch.returncode, log_path))
+    for line in launch_failure(log_path):
+        print('  ' + line)
+    return 1
+
+
 def launch_failure(path, lines=6):
     """Why roslaunch ended, from its log: the lines that say a process failed or died."""
     try:
@@ -208,10 +216,7 @@ def main(argv=None):
             print('%s; roslaunch output: %s' % (err, args.log))
             return 1
         if launch.poll() is not None:
-            print('roslaunch exited (code %s) before the ROS master came up; see %s' % (launch.returncode, args.log))
-            for line in launch_failure(args.log):
-                print('  ' + line)
-            return 1
+            return said_launch_ended(launch, args.log, 'roslaunch exited (code %s) before the ROS master came up')
         if interrupted:
             print('interrupted while waiting for the ROS master')
             return 1
@@ -231,10 +236,7 @@ def main(argv=None):
         last_line = 0.0
         while not interrupted:
             if launch.poll() is not None:
-                print('\nroslaunch ended (code %s), the vehicle is gone; see %s' % (launch.returncode, args.log))
-                for line in launch_failure(args.log):
-                    print('  ' + line)
-                return 1
+                return said_launch_ended(launch, args.log, '\nroslaunch ended (code %s), the vehicle is gone')
             if tty:
                 sys.stdout.write('\r' + rec.status() + '   ')
                 sys.stdout.flush()
