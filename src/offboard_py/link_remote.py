@@ -10,7 +10,8 @@
   partner again: a flood from another port is read, but the telemetry and replies stay where they went.
 
 Both answer the same two questions of MavlinkLink: admit(sender) before a datagram is read (False:
-drop it unread), and heard(sender) after a datagram with a valid frame from the peer was read.
+drop it unread), and heard(sender) after a datagram with a valid frame from the peer was read;
+`replies_stay_with_partner` says whether a datagram from another sender is answered elsewhere.
 `address` is where to send now (None: nowhere yet).
 """
 
@@ -36,6 +37,8 @@ def on_this_host(address):
 class MavconnRemote:
     """mavconn's rule: follow the peer's latest sender (learn), or keep the first remote."""
 
+    replies_stay_with_partner = False  # whoever the peer last sent from gets the replies
+
     def __init__(self, address, name, learn=True):
         self.address = address
         self.name = name
@@ -58,6 +61,8 @@ class MavconnRemote:
 
 class Px4Partner:
     """PX4's rule: the first sender (after the grace, for a partner that is not local) for good."""
+
+    replies_stay_with_partner = True  # another sender is read, but not answered
 
     def __init__(self, address, name, clock):
         self.address = address

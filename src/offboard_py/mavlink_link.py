@@ -311,7 +311,7 @@ class MavlinkLink:
         if not policy.admit(sender):
             self.stats['before_partner'] += 1
             return  # PX4 reads nothing until it knows its partner
-        if isinstance(policy, Px4Partner) and sender is not None and sender != policy.address:
+        if policy.replies_stay_with_partner and sender is not None and sender != policy.address:
             self.stats['other_senders'] += 1  # read, but the replies still go to the partner
         decode_all = self.signing.active
         wanted = self._wanted_ids

@@ -98,4 +98,3 @@ def retry(what, attempt, stop, pause, log, delays=None):
         delay = delays[min(tries - 1, len(delays) - 1)]
         log.logwarn('%s failed: %s; trying again in %.0f s (try %d)', what, detail, delay, tries + 1)
         pause(delay)
-    return False
