@@ -3,8 +3,9 @@
 
 For one vehicle: stream quality at the FCU, latency from publication in ROS to arrival
 at the FCU, CPU and memory of each process, time to hover split by phase. Then N
-vehicles for each N in --scale until a vehicle misses the bar (p99 inter-arrival
-<= 60 ms and no gap over 200 ms). Prints a markdown table and writes JSON.
+vehicles for each N in --scale until a vehicle misses the bar (p99 inter-arrival <= 60 ms
+and no gap over 200 ms), and then the largest N asked for, whose row is the target's.
+Prints a markdown table and writes JSON.
 Run it through `./run bench` (which sets up and sources the workspace); `./run bench --replay [args]`
 measures the bridge alone on PX4 SITL's recorded stream instead (bench/replay_bench.py).
 """
@@ -394,7 +395,9 @@ def _measure(args, scale, logdir):
         result['sim_time'] = _measure_speed(args, logdir, single)
     steps = []
     largest = None
-    for n in scale:
+    todo = list(scale)
+    while todo:
+        n = todo.pop(0)
         print('%d vehicles, %.0f s of hover ...' % (n, args.scale_duration), flush=True)
         try:
             vehicles = run(n, args.scale_duration, logdir, pack_datagrams=args.pack_datagrams)
@@ -411,7 +414,9 @@ def _measure(args, scale, logdir):
                 'total_cpu_pct': sum(c or 0 for v in vehicles for c in v['cpu_pct'].values()), 'holds_bar': ok}
         steps.append(step)
         if not ok:
-            break
+            # the counts between are skipped, the largest asked for is still measured: its row is the target's
+            todo = todo[-1:]
+            continue
         largest = n
     result['scaling'] = steps
     result['largest_n_holding_bar'] = largest

@@ -45,7 +45,7 @@ class Ros:
     def __init__(self, subscribed):
         self.subscribed, self.topics = subscribed, {}
 
-    def publisher(self, name, _cls, queue_size, latch):
+    def publisher(self, name, _cls, queue_size, latch, on_subscribers):
         self.topics[name] = Publisher(1 if self.subscribed == 'all' or name == '~state' else 0)
         return self.topics[name]
 

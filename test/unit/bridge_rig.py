@@ -49,6 +49,9 @@ class FakeLink:
         """Raw frames are MavlinkLink's (test_link_partner); this link hands out messages only."""
         self.frame_hook = (hook, needed)
 
+    def needs_changed(self):
+        """Nothing to ask again: every message goes to every handler here."""
+
     def send(self, msg):
         with self._lock:
             data = msg.pack(self.mav)
@@ -87,10 +90,23 @@ class FakeFcu:
 
 
 class FakePublisher:
-    def __init__(self, latch, queue_size):
+    """rospy's Publisher as the bridge sees it: setting `connections` tells the bridge, as rospy's
+    subscriber_listener does when a subscriber comes or goes."""
+
+    def __init__(self, latch, queue_size, on_subscribers):
         self.latch, self.queue_size = latch, queue_size
         self.messages = []
-        self.connections = 1
+        self.on_subscribers = on_subscribers
+        self._connections = 1
+
+    @property
+    def connections(self):
+        return self._connections
+
+    @connections.setter
+    def connections(self, count):
+        self._connections = count
+        self.on_subscribers()
 
     def publish(self, msg):
         self.messages.append(msg)
@@ -107,8 +123,8 @@ class FakeRos:
     def get_param(self, name, default):
         return self.params.get(name, default)
 
-    def publisher(self, name, _data_class, queue_size, latch):
-        self.topics[name] = FakePublisher(latch, queue_size)
+    def publisher(self, name, _data_class, queue_size, latch, on_subscribers):
+        self.topics[name] = FakePublisher(latch, queue_size, on_subscribers)
         return self.topics[name]
 
     def subscriber(self, name, _data_class, callback):

@@ -10,13 +10,15 @@
 """
 
 import random
+import socket
 import struct
+import time
 
 import pytest
 
 from offboard_py import wire
 from offboard_py.dialect import mavlink
-from offboard_py.mavlink_link import MavlinkLink
+from offboard_py.mavlink_link import NEEDED_RECHECK_S, MavlinkLink
 
 INT_RANGES = {'int8_t': (-128, 127), 'uint8_t': (0, 255), 'int16_t': (-32768, 32767), 'uint16_t': (0, 65535),
               'int32_t': (-2 ** 31, 2 ** 31 - 1), 'uint32_t': (0, 2 ** 32 - 1),
@@ -195,11 +197,76 @@ def test_link_decodes_a_type_only_while_a_handler_needs_it(link, monkeypatch):
     assert link.stats['received'] == 2
     needed[0] = True
     link.handle_datagram(frame(ATT, seq=2), ('127.0.0.1', 14580))
-    assert [m.get_type() for m in got] == ['ATTITUDE'] and link.stats['received'] == 3
-    link.on('ATTITUDE', lambda msg: None)  # a handler that always reads it
-    needed[0] = False
+    assert got == [], 'needed() is not asked at every frame'
+    time.sleep(NEEDED_RECHECK_S * 1.2)
     link.handle_datagram(frame(ATT, seq=3), ('127.0.0.1', 14580))
+    assert [m.get_type() for m in got] == ['ATTITUDE'] and link.stats['received'] == 4, \
+        'asked again NEEDED_RECHECK_S later'
+    needed[0] = False
+    link.needs_changed()
+    link.handle_datagram(frame(ATT, seq=4), ('127.0.0.1', 14580))
+    assert len(got) == 1, 'and at once after needs_changed()'
+    link.on('ATTITUDE', lambda msg: None)  # a handler that always reads it
+    link.handle_datagram(frame(ATT, seq=5), ('127.0.0.1', 14580))
     assert len(got) == 2, 'one handler that always reads a type decodes it for all of them'
+
+
+def _one_frame_datagrams(rng, count):
+    """PX4's framing (a message a datagram) with what a link meets on it: read and unread types, kept
+    frames, lost and repeated sequence numbers, another system, another component, bad CRCs, MAVLink 1."""
+    att_q = mavlink.MAVLink_attitude_quaternion_message(1000, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    out, seq = [], 0
+    for _ in range(count):
+        seq = (seq + rng.choice((1, 1, 1, 2, 0, 7))) & 0xFF
+        msg = rng.choice((HB, ATT, ATT, att_q))
+        system = rng.choice((1, 1, 1, 1, 2))
+        data = bytearray(wire.encode(msg, seq, system, rng.choice((1, 1, 1, 190))))
+        if rng.random() < 0.05:
+            data[-1] ^= 0xFF  # a bad CRC
+        if rng.random() < 0.03:
+            mav1 = mavlink.MAVLink(None, srcSystem=system, srcComponent=1)
+            mav1.WIRE_PROTOCOL_VERSION = '1.0'
+            data = bytearray(msg.pack(mav1))
+        out.append(bytes(data))
+    return out
+
+
+def test_one_frame_datagrams_are_taken_as_the_general_walk_takes_them(monkeypatch):
+    """handle_datagram's short way for a lone unsigned frame nobody decodes now (_skim) counts, hooks,
+    orders and answers exactly as the walk over a datagram's frames does: same stats, same calls."""
+    datagrams = _one_frame_datagrams(random.Random(7), 3000)
+
+    def run(short_way):
+        endpoint = MavlinkLink(('127.0.0.1', 0), None, system_id=255, component_id=1, peer=(1, 1))
+        calls = []
+        endpoint.on('HEARTBEAT', lambda msg: calls.append(('HEARTBEAT', msg.get_seq())))
+        endpoint.on('ATTITUDE', lambda msg: calls.append(('ATTITUDE', msg.get_seq())), needed=lambda: False)
+        endpoint.on_raw('ATTITUDE_QUATERNION', lambda data: calls.append(('kept', bytes(data))))
+        endpoint.on_frames(lambda data: calls.append(('frame', bytes(data))))
+        endpoint.on_datagram = lambda data: calls.append(('datagram', len(data)))
+        if not short_way:
+            monkeypatch.setattr(endpoint, '_skim', lambda data, sender: False)
+        for i, data in enumerate(datagrams):
+            endpoint.handle_datagram(data, ('127.0.0.1', 14580 + i % 3))
+            calls.append(('remote', endpoint.remote))
+        endpoint.close()
+        return calls, dict(endpoint.stats), endpoint.remote
+
+    short, walked = run(True), run(False)
+    assert short[1] == walked[1] and short[2] == walked[2]
+    assert short[0] == walked[0]
+    assert short[1]['dropped'] > 0 and short[1]['bad_frames'] > 0 and short[1]['other_system'] > 0
+
+
+def test_receive_reads_every_pending_datagram_and_stops_without_waiting(link):
+    """receive() asks poll() whether another datagram waits instead of reading until EAGAIN."""
+    sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    for seq in range(3):
+        sender.sendto(frame(HB, seq=seq), link.bind)
+    time.sleep(0.05)
+    assert link.receive() == 3 and [m.get_seq() for m in link.got] == [0, 1, 2]
+    assert link.receive() == 0, 'nothing pending: returns at once'
+    sender.close()
 
 
 def test_link_gives_kept_frames_undecoded_in_their_turn(link, monkeypatch):

@@ -98,6 +98,11 @@ class Bridge:
         (mavros's mavlink/from), while `needed()` says so."""
         self.link.on_frames(hook, needed)
 
+    def needs_changed(self):
+        """What a handler's `needed` reads has moved (besides subscribers, which the link hears of):
+        the link asks again at the next frame."""
+        self.link.needs_changed()
+
     @staticmethod
     def listened(*publishers):
         """A `needed` for a handler that only feeds these (non-latched) topics: any subscriber."""
@@ -114,7 +119,9 @@ class Bridge:
     # -- ROS ----------------------------------------------------------------------------------
 
     def publisher(self, name, data_class, queue_size=10, latch=False):
-        return self._ros.publisher(name, data_class, queue_size=queue_size, latch=latch)
+        """A topic; when it gains or loses a subscriber the link asks the handlers' needed() again."""
+        return self._ros.publisher(name, data_class, queue_size=queue_size, latch=latch,
+                                   on_subscribers=self.link.needs_changed)
 
     def subscriber(self, name, data_class, callback):
         return self._ros.subscriber(name, data_class, callback)

@@ -108,6 +108,7 @@ class GlobalPosition:
         lat, lon, alt = gp.lat * 1e-7, gp.lon * 1e-7, gp.alt * 1e-3
         if self.origin is None and _fix_status(fix_type) == NavSatStatus.STATUS_FIX:
             self.origin = (lat, lon, frames.geodetic_to_ecef(lat, lon, alt))
+            b.needs_changed()  # GLOBAL_POSITION_INT is now read only for its subscribers
         if self.origin is not None and self.local_pub.get_num_connections():
             here = frames.geodetic_to_ecef(lat, lon, alt)
             odom = Odometry()

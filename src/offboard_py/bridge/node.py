@@ -27,12 +27,26 @@ PLUGINS = (sys_status.SysStatus, sys_time.SysTime, command.Command, setpoint.Set
            tf_frames.TfFrames)
 
 
+class _SubscribersMoved(rospy.SubscribeListener):
+    def __init__(self, callback):
+        super().__init__()
+        self.callback = callback
+
+    def peer_subscribe(self, _topic_name, _topic_publish, _peer_publish):
+        self.callback()
+
+    def peer_unsubscribe(self, _topic_name, _num_peers):
+        self.callback()
+
+
 class RospyEndpoints:
     """The plugins' ROS side in the running node: names as given (`~...` is private to the node)."""
 
     @staticmethod
-    def publisher(name, data_class, queue_size, latch):
-        return rospy.Publisher(name, data_class, queue_size=queue_size, latch=latch)
+    def publisher(name, data_class, queue_size, latch, on_subscribers):
+        """on_subscribers() is called when the topic gains or loses a subscriber."""
+        return rospy.Publisher(name, data_class, queue_size=queue_size, latch=latch,
+                               subscriber_listener=_SubscribersMoved(on_subscribers))
 
     @staticmethod
     def subscriber(name, data_class, callback):
