@@ -90,6 +90,9 @@ def descends_from(pid, ancestor):
     return False
 
 
+ALL = 'all'  # processes()'s vehicle for a process that serves them all
+
+
 def processes(launch_pid):
     """pid of each process of the stack started by the launch launch_pid, by (vehicle, role)."""
     found = {}
@@ -107,6 +110,8 @@ def processes(launch_pid):
         ns = next((e.split(b'=', 1)[1].decode() for e in env if e.startswith(b'ROS_NAMESPACE=')), '')
         if role and ns.strip('/').startswith('uav'):
             found[(int(ns.strip('/')[3:]), role)] = int(pid)
+        elif role == 'sim':  # multi_uav.launch sim_process:=one: one simulator for every vehicle
+            found[(ALL, 'sim')] = int(pid)
         elif b'sim_clock.py' in text:  # simulated time: the /clock publisher, counted with vehicle 0
             found[(0, 'clock')] = int(pid)
     return found
@@ -159,7 +164,8 @@ def forget_stale_nodes(prefixes=('/uav', '/sim_clock')):
     return stale
 
 
-def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None, pack_datagrams=False):
+def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None, pack_datagrams=False,
+        sim_process='each'):
     """Fly n vehicles to 2 m, hover duration_s, and measure. At another speed than 1 the stack runs in
     simulated time: the hover lasts duration_s simulated seconds and the stream is timed on that clock
     (the simulator logs arrivals on it, the node stamps on /clock). `beside`: what else runs meanwhile
@@ -174,7 +180,7 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
     launch_log = open(os.path.join(logdir, 'launch-%d-%g.log' % (n, speed)), 'w')
     launch = subprocess.Popen(['roslaunch', 'offboard_py', 'multi_uav.launch', 'n:=%d' % n, 'log_output:=log',
                                'sim_args:=--setpoint-log %s%s' % (logdir, ' --pack-datagrams' if pack_datagrams else ''),
-                               'speed:=%g' % speed],
+                               'speed:=%g' % speed, 'sim_process:=%s' % sim_process],
                               stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
     stamps = [] if latency else None
     watches = [Watch('/uav%d' % i, clock.now(), stamps if i == 0 else None, clock) for i in range(n)]
@@ -198,6 +204,10 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
         clock.sleep(duration_s)
         cpu = {k: (cpu_seconds(p) - cpu0[k]) / (time.monotonic() - window[1]) * 100.0 for k, p in pids.items()}
         rss = {k: rss_mb(p) for k, p in pids.items()}
+        for shares in (cpu, rss):  # a process that serves every vehicle: an equal share each
+            if (ALL, 'sim') in shares:
+                shared = shares.pop((ALL, 'sim'))
+                shares.update({(i, 'sim'): shared / n for i in range(n)})
         window_end = now_ns()
         if beside is not None:
             beside.finish(watches)
@@ -257,6 +267,9 @@ def main():
     p.add_argument('--speed', default='5',
                    help='also measure one vehicle in simulated time at this speed, the setpoint stream timed in '
                         'simulated seconds beside real time (default 5, what ./run test uses; 1: skip)')
+    p.add_argument('--sim-process', choices=('each', 'one'), default='each',
+                   help='the scaling rows\' simulated vehicles: a process each (each, the default, as PX4 SITL '
+                        'instances) or one process and loop for all (one: multi_uav.launch sim_process:=one)')
     p.add_argument('--pack-datagrams', action='store_true',
                    help="NOT PX4's framing: the simulator packs its messages into as few datagrams as fit 1400 bytes "
                         "(its --pack-datagrams); by default it sends one MAVLink message a datagram, as PX4 does")
@@ -352,7 +365,7 @@ def _measure_speed(args, logdir, single):
 
 def _measure(args, scale, logdir):
     result = {'machine': machine(),
-              'command': ' '.join(sys.argv), 'framing': framing(args.pack_datagrams)}
+              'command': ' '.join(sys.argv), 'framing': framing(args.pack_datagrams), 'sim_process': args.sim_process}
     print('simulator framing: %s' % result['framing'], flush=True)
     print('one vehicle, %.0f s of hover ...' % args.duration, flush=True)
     single = run(1, args.duration, logdir, latency=True, pack_datagrams=args.pack_datagrams)[0]
@@ -400,7 +413,8 @@ def _measure(args, scale, logdir):
         n = todo.pop(0)
         print('%d vehicles, %.0f s of hover ...' % (n, args.scale_duration), flush=True)
         try:
-            vehicles = run(n, args.scale_duration, logdir, pack_datagrams=args.pack_datagrams)
+            vehicles = run(n, args.scale_duration, logdir, pack_datagrams=args.pack_datagrams,
+                           sim_process=args.sim_process)
         except RuntimeError as err:
             steps.append({'n': n, 'error': str(err)})
             print('  %s' % err, flush=True)
@@ -420,7 +434,8 @@ def _measure(args, scale, logdir):
         largest = n
     result['scaling'] = steps
     result['largest_n_holding_bar'] = largest
-    table = ['simulator framing: %s' % result['framing'], '',
+    table = ['simulator framing: %s; simulated vehicles: %s' % (result['framing'], {
+        'each': 'a process each', 'one': 'one process for all (sim_process:=one)'}[args.sim_process]), '',
              '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) '
              '| per vehicle: node / bridge / sim (%) | bridge / real mavros | bar |',
              '|---|---|---|---|---|---|---|---|']

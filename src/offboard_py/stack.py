@@ -24,9 +24,15 @@ def describe(fcu, bridge):
     return '%s + %s' % (BRIDGES.get(bridge, bridge), FCUS.get(fcu, fcu))
 
 
-def choice_errors(fcu, bridge):
-    """What is wrong with the launch arguments fcu and bridge, one line each (none: nothing)."""
+SIM_PROCESSES = {'each': 'a simulator process a vehicle', 'one': 'one simulator process for all the vehicles'}
+
+
+def choice_errors(fcu, bridge, sim_process='each'):
+    """What is wrong with the launch arguments fcu, bridge and sim_process, one line each (none: nothing)."""
     errors = []
+    if sim_process not in SIM_PROCESSES:
+        errors.append('sim_process:=%s is not a way to run the simulated vehicles: use %s'
+                      % (sim_process, ' or '.join('sim_process:=%s (%s)' % kv for kv in SIM_PROCESSES.items())))
     if fcu not in FCUS:
         errors.append('fcu:=%s is not a flight controller this launch can start: use %s'
                       % (fcu, ' or '.join('fcu:=%s (%s)' % kv for kv in FCUS.items())))
@@ -85,7 +91,7 @@ def find_real_parts(env=None, config_path=None, find_package=None):
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     given = dict(a.split(':=', 1) for a in argv if ':=' in a and not a.startswith('__'))
-    errors = choice_errors(given.get('fcu', 'sim'), given.get('bridge', 'ours'))
+    errors = choice_errors(given.get('fcu', 'sim'), given.get('bridge', 'ours'), given.get('sim_process', 'each'))
     for line in errors:
         print('error: %s' % line, file=sys.stderr)
     return 1 if errors else 0

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Two vehicles of multi_uav.launch at once: both take off together."""
+"""Two vehicles of multi_uav.launch at once: both take off together (~first: the first's id, 0)."""
 
 import rospy
 import rostest
@@ -12,7 +12,8 @@ PKG = 'offboard_py'
 class TwoVehiclesTest(OffboardTestCase):
 
     def test_both_take_off(self):
-        uavs = [Vehicle('uav0/mavros'), Vehicle('uav1/mavros')]
+        first = rospy.get_param('~first', 0)
+        uavs = [Vehicle('uav%d/mavros' % first), Vehicle('uav%d/mavros' % (first + 1))]
         for uav in uavs:
             self.wait_for_connected(uav, 30.0)
         self.wait_for_offboard_and_armed(uavs, 60.0, 'both OFFBOARD and armed')

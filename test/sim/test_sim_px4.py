@@ -14,7 +14,8 @@ from offboard_py.dialect import (FAILURE_TYPE_OFF, FAILURE_TYPE_OK, FAILURE_UNIT
                                  mavlink)
 from offboard_py.testing import ports
 from offboard_py.testing.mavros_typemasks import IGNORE_ACCELERATION, IGNORE_ALL_VECTORS, POSITION_AND_YAW
-from offboard_py.testing.sim_client import ACCEPTED, DENIED, FAILED, TEMPORARILY_REJECTED, UNSUPPORTED
+from offboard_py.testing.sim_client import (ACCEPTED, DENIED, FAILED, TEMPORARILY_REJECTED, UNSUPPORTED, Client,
+                                             SimProcess)
 
 REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
 
@@ -387,6 +388,33 @@ def test_two_instances_side_by_side(start_sim):
     assert first.armed() and not second.armed()
 
 
+def test_one_process_runs_a_fleet_each_vehicle_its_own_ports_id_and_place():
+    """sim_px4.py --vehicles 2 (multi_uav.launch sim_process:=one): two vehicles in one loop, each on its
+    instance's ports with its own system id, PX4's streams on each, spawned 3 m apart northwards as
+    multi_uav.launch spawns a process each, and armed one without the other."""
+    first, _ = ports.free_instances(2)
+    sim = SimProcess(first, '--vehicles', '2', '--no-gcs', *FAST)
+    clients = []
+    try:
+        clients = [Client(first, sim.clock), Client(first + 1, sim.clock)]
+        for client in clients:
+            client.wait_heartbeat(10.0)
+        assert [c.latest['HEARTBEAT'].get_srcSystem() for c in clients] == [ports.system_id(first),
+                                                                             ports.system_id(first + 1)]
+        clients[0].sleep(3.0)
+        rates = [len(c.by_type.get('ATTITUDE_QUATERNION', ())) for c in clients]
+        assert min(rates) > 0.8 * max(rates), 'each vehicle streams as the other: %s' % rates
+        lats = [c.latest['GLOBAL_POSITION_INT'].lat * 1e-7 for c in clients]
+        assert abs((lats[1] - lats[0]) * 111194.9 - 3.0) < 0.2, 'the second vehicle 3 m north of the first'
+        assert clients[0].arm() == ACCEPTED
+        clients[0].sleep(1.0)
+        assert clients[0].armed() and not clients[1].armed()
+    finally:
+        for client in clients:
+            client.close()
+        assert sim.stop() == 0, sim.output[-2000:]
+
+
 def test_garbage_and_other_systems_change_nothing(start_sim):
     sim, client = start_sim(*FAST)
     # the client speaks first, as mavros does at start: PX4 keeps the first sender it hears from as
@@ -453,7 +481,9 @@ def test_rejects_bad_command_line():
     import sys
     script = os.path.join(REPO, 'scripts', 'sim_px4.py')
     for args, words in ((['NOT_A_PARAM=1'], 'unknown parameter'), (['COM_OF_LOSS_T=-3'], 'COM_OF_LOSS_T'),
-                        (['--home', '95,0,0'], 'home'), (['-i', '-1'], 'instance')):
+                        (['--home', '95,0,0'], 'home'), (['-i', '-1'], 'instance'), (['--vehicles', '0'], 'vehicles'),
+                        (['-i', '98', '--vehicles', '3'], 'instances end at 99'),
+                        (['--vehicles', '2', '--local-port', '15000'], '--local-port')):
         out = subprocess.run([sys.executable, script] + args, capture_output=True, text=True, timeout=20)
         assert out.returncode != 0, args
         assert words in out.stdout + out.stderr, (args, out.stdout + out.stderr)

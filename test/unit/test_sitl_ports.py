@@ -67,3 +67,11 @@ def test_the_simulator_binds_and_numbers_as_the_formula():
         assert sim.gcs_link.bind[1] == sitl_ports.gcs_port(39)
     finally:
         sim.close_links()
+
+
+@pytest.mark.parametrize('path', FILES, ids=lambda p: os.path.relpath(p, REPO))
+def test_launch_and_test_files_are_well_formed_xml(path):
+    """roslaunch refuses a file that is not XML (a '--' in a comment is enough) only when it is launched:
+    a fleet size or a scenario nobody ran would fail on a user's machine first."""
+    import xml.dom.minidom
+    xml.dom.minidom.parse(path)

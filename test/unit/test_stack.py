@@ -84,6 +84,9 @@ def test_stack_choices_and_their_errors(capsys):
     assert 'fcu:=gazebo is not a flight controller' in err and 'fcu:=px4_sih' in err
     assert stack.main(['bridge:=mavros2']) == 1
     assert 'bridge:=mavros2 is not a ROS side' in capsys.readouterr().err
+    assert stack.choice_errors('sim', 'ours', 'one') == []
+    assert stack.main(['sim_process:=two']) == 1
+    assert 'sim_process:=two is not a way to run the simulated vehicles' in capsys.readouterr().err
     assert stack.describe('px4_sih', 'ours') == 'our mavros-compatible bridge + real PX4 SITL (SIH quadrotor)'
 
 

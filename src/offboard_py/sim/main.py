@@ -14,9 +14,12 @@ import time
 from offboard_py.dialect import check_pymavlink_version
 from offboard_py.signing import SigningKeyError
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
-from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
+from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4, run_together
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.param_store import ParamRejected
+
+
+VEHICLE_SPACING_M = 3.0  # --vehicles: north of each other, as multi_uav.launch spawns them
 
 
 class SetpointLog:
@@ -63,6 +66,13 @@ def _instance(text):
     return value
 
 
+def _vehicles(text):
+    value = int(text)
+    if not 1 <= value <= 100:
+        raise argparse.ArgumentTypeError('--vehicles must be 1..100, got %d' % value)
+    return value
+
+
 def _speed(text):
     try:
         return parse_speed(text, '--speed')
@@ -92,6 +102,10 @@ def parser():
     p.add_argument('--spawn', type=_spawn, default=(0.0, 0.0), metavar='X,Y',
                    help='start position in the world, ENU metres from the home above (as x/y in PX4 launch files); '
                         'the vehicle\'s own local frame and home start there')
+    p.add_argument('--vehicles', type=_vehicles, default=1, metavar='N',
+                   help='run N vehicles in this one process and loop, instances N..N+K-1 (-i the first) with '
+                        'their own ports and system ids, spawned %g m apart northwards as in PX4\'s multi-vehicle '
+                        'launch files: one wake-up serves them all (default 1)' % VEHICLE_SPACING_M)
     p.add_argument('--bind', default='127.0.0.1', help='address to bind (default 127.0.0.1: loopback only)')
     p.add_argument('--local-port', type=int, help='UDP port to bind (default 14580+N)')
     p.add_argument('--remote-port', type=int, help='UDP port to send to until a client talks (default 14540+N)')
@@ -133,7 +147,7 @@ def parser():
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     args = parser().parse_args([a for a in argv if ':=' not in a])
-    logging.basicConfig(level=args.log_level.upper(), format='[sim_px4 %d] %%(message)s' % args.instance)
+    logging.basicConfig(level=args.log_level.upper(), format='[sim_px4 %s] %%(message)s' % (args.instance if args.vehicles == 1 else '%d-%d' % (args.instance, args.instance + args.vehicles - 1)))
     check_pymavlink_version()
     if not 10.0 <= args.rate <= 1000.0:
         logging.error('--rate must be 10..1000 Hz, got %g', args.rate)
@@ -141,37 +155,53 @@ def main(argv=None):
     if not 1 <= args.steps_per_wakeup <= 10:
         logging.error('--steps-per-wakeup must be 1..10, got %d', args.steps_per_wakeup)
         return 2
+    if args.vehicles > 1 and any(port is not None for port in (args.local_port, args.remote_port, args.gcs_port)):
+        logging.error('--local-port, --remote-port and --gcs-port name one vehicle\'s ports: with --vehicles, '
+                      'each vehicle takes its instance\'s (14580+N, 14540+N, 18570+N)')
+        return 2
+    clock = SimClock(args.speed)
+    sims = []
     try:
-        home = LocalFrame(*args.home).to_global(args.spawn[1], args.spawn[0], 0.0)
-        sim = SimulatedPx4(instance=args.instance, home=home, bind_host=args.bind,
-                           local_port=args.local_port, remote_port=args.remote_port, param_overrides=args.params,
-                           ready_delay_s=args.ready_delay, rc=args.rc, rate_hz=args.rate,
-                           steps_per_wakeup=args.steps_per_wakeup, clock=SimClock(args.speed),
-                           pack_datagrams=args.pack_datagrams,
-                           signing_key_file=args.signing_key, allowed_systems=args.allow_sysid,
-                           gcs=not args.no_gcs, gcs_port=args.gcs_port, gcs_remote_port=args.gcs_remote_port)
-    except (ParamRejected, SigningKeyError) as err:
+        for k in range(args.vehicles):
+            instance = args.instance + k
+            if instance > 99:
+                raise ValueError('--vehicles %d from instance %d: instances end at 99' % (args.vehicles, args.instance))
+            home = LocalFrame(*args.home).to_global(args.spawn[1] + k * VEHICLE_SPACING_M, args.spawn[0], 0.0)
+            sims.append(SimulatedPx4(
+                instance=instance, home=home, bind_host=args.bind, local_port=args.local_port,
+                remote_port=args.remote_port, param_overrides=args.params, ready_delay_s=args.ready_delay,
+                rc=args.rc, rate_hz=args.rate, steps_per_wakeup=args.steps_per_wakeup, clock=clock,
+                pack_datagrams=args.pack_datagrams, signing_key_file=args.signing_key,
+                allowed_systems=args.allow_sysid, gcs=not args.no_gcs, gcs_port=args.gcs_port,
+                gcs_remote_port=args.gcs_remote_port))
+    except (ParamRejected, SigningKeyError, ValueError) as err:
         logging.error('%s', err)
         return 2
     except OSError as err:
         logging.error('%s', err)
         return 1
-    if args.ideal:
-        sim.flight.set_ideal()
-
-    setpoint_log = SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % args.instance), sim.clock) \
-        if args.setpoint_log else None
-    if setpoint_log:
-        sim.on_setpoint_accepted.append(setpoint_log.record)
+    finally:
+        if len(sims) < args.vehicles:
+            for sim in sims:
+                sim.close_links()
+    setpoint_logs = []
+    for instance, sim in enumerate(sims, args.instance):
+        if args.ideal:
+            sim.flight.set_ideal()
+        if args.setpoint_log:
+            setpoint_logs.append(SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % instance), clock))
+            sim.on_setpoint_accepted.append(setpoint_logs[-1].record)
 
     def stop(_signum, _frame):
-        sim.stop()
+        for sim in sims:
+            sim.stop()
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
     try:
-        sim.run()
+        run_together(sims)
     finally:
-        sim.close()
-        if setpoint_log:
+        for sim in sims:
+            sim.close()
+        for setpoint_log in setpoint_logs:
             setpoint_log.write()
     return 0
