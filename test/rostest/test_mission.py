@@ -14,20 +14,11 @@ import rostest
 from mavros_msgs.msg import ExtendedState, Waypoint, WaypointReached
 from mavros_msgs.srv import WaypointPush
 
-from offboard_py.dialect import mavlink
+from offboard_py.testing.measured_tables import MISSION_BOX
 from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle, now
 
 PKG = 'offboard_py'
 NAN = float('nan')
-# MC_mission_box (reference/px4-sitl-measured.md, "AUTO modes"): command, latitude, longitude, altitude above home
-MISSION_BOX = (
-    (mavlink.MAV_CMD_NAV_TAKEOFF, 47.39773941, 8.54559040, 5.0),
-    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39787292, 8.54559326, 10.0),
-    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39787292, 8.54534149, 10.0),
-    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39773941, 8.54533672, 10.0),
-    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39773941, 8.54559040, 10.0),
-    (mavlink.MAV_CMD_NAV_LAND, 47.39773941, 8.54559135, 0.0),
-)
 # the same section, the two PX4 runs: arm -> MISSION_ITEM_REACHED 0..4 and arm -> landed (s)
 REACHED_S = ((7.95, 8.74), (13.74, 15.50), (20.37, 22.25), (27.15, 29.07), (35.70, 37.88))
 LANDED_S = (54.02, 55.06)

@@ -16,21 +16,13 @@ from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.mission import Item
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
+from offboard_py.testing.measured_tables import MISSION_BOX
 
 M = mavlink
 NAN = float('nan')
 DT = 0.01                 # the simulator's default rate, 100 Hz
 SETPOINT_PERIOD_S = 0.05  # the companion's 20 Hz
 HOME = (47.397742, 8.545594, 488.0)
-# PX4's integration-test mission MC_mission_box (px4-sitl-measured.md, "AUTO modes")
-MISSION_BOX = (
-    (M.MAV_CMD_NAV_TAKEOFF, 47.39773941, 8.54559040, 5.0),
-    (M.MAV_CMD_NAV_WAYPOINT, 47.39787292, 8.54559326, 10.0),
-    (M.MAV_CMD_NAV_WAYPOINT, 47.39787292, 8.54534149, 10.0),
-    (M.MAV_CMD_NAV_WAYPOINT, 47.39773941, 8.54533672, 10.0),
-    (M.MAV_CMD_NAV_WAYPOINT, 47.39773941, 8.54559040, 10.0),
-    (M.MAV_CMD_NAV_LAND, 47.39773941, 8.54559135, 0.0),
-)
 
 
 def position_setpoint(north, east, down):

@@ -601,3 +601,6 @@ def run_together(sims, duration_s=None):
                 sim.step(period, slot_s - sim.boot_s, out)
             for link, msgs in out.items():
                 link.send_many(msgs)  # a datagram per message, as PX4 (MavlinkLink.send_many)
+            if len(sims) > 1:  # what came in meanwhile is read now, not after every vehicle's turn
+                for fd, _ in poller.poll(0):
+                    by_fd[fd].receive()

@@ -1,6 +1,19 @@
 """Tables of reference/px4-sitl-measured.md read as data, for the tests that hold the simulated PX4
 to them (the file is the recording's index, written for people: its tables are markdown)."""
 
+from offboard_py.dialect import mavlink
+
+# PX4's integration-test mission MC_mission_box, flown in the recordings ("AUTO modes"): command,
+# latitude, longitude, altitude above home (m)
+MISSION_BOX = (
+    (mavlink.MAV_CMD_NAV_TAKEOFF, 47.39773941, 8.54559040, 5.0),
+    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39787292, 8.54559326, 10.0),
+    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39787292, 8.54534149, 10.0),
+    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39773941, 8.54533672, 10.0),
+    (mavlink.MAV_CMD_NAV_WAYPOINT, 47.39773941, 8.54559040, 10.0),
+    (mavlink.MAV_CMD_NAV_LAND, 47.39773941, 8.54559135, 0.0),
+)
+
 
 def available_modes(measured_md):
     """[(mode_index, custom_mode, PX4 mode, standard_mode, properties, mode_name)] from the table of
