@@ -204,7 +204,7 @@ class MavlinkLink:
 
     def on_frames(self, hook, needed=None):
         """Call hook(frame bytes) for each valid frame, read or not, while `needed()` says so
-        (None: always; asked once a datagram), as on() does for messages."""
+        (None: always; asked as on()'s needed() is asked), as on() does for messages."""
         self._frame_hook = (hook, needed)
         self._needs_cache.pop('frames', None)
 
@@ -440,8 +440,9 @@ class MavlinkLink:
     def _skim(self, data, sender):
         """PX4's and mavros's framing, one unsigned MAVLink 2 frame a datagram, of a type nobody decodes
         now (most of PX4's 400 a second: attitude, IMU, odometry nobody subscribes to): checked, counted and
-        given to its raw hooks as handle_datagram's walk would, with a tenth of its steps. False leaves the
-        datagram to the walk (several frames, MAVLink 1, signed, another system's, a bad CRC, decoded)."""
+        given to its raw hooks as handle_datagram's walk would, without the walk's lists and per-frame
+        branches. False leaves the datagram to the walk (several frames, MAVLink 1, signed, another
+        system's, a bad CRC, a type to decode)."""
         size = len(data)
         if size < wire.HEADER_V2 + 2 or data[0] != wire.MAGIC_V2 or data[2] or size != wire.HEADER_V2 + 2 + data[1]:
             return False

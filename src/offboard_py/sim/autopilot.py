@@ -16,12 +16,12 @@ the flight stack says (mode changes, texts, mission progress) goes out on both l
 import collections
 import logging
 import math
-import select
 import struct
 
 from offboard_py import param_codec, px4_modes, sitl_ports
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
+from offboard_py.sim import loop
 from offboard_py.simtime import SimClock
 from offboard_py.signing import SigningKeyError, read_signing_key, write_signing_key
 from offboard_py.sim import events as ev
@@ -520,8 +520,9 @@ class SimulatedPx4:
     # -- the loop --------------------------------------------------------------------------
 
     def run(self, duration_s=None):
-        """Run on the clock until stop() (or for duration_s of its seconds): run_together([self])."""
-        run_together([self], duration_s)
+        """Run on the clock until stop() (or for duration_s of its seconds): the loop of
+        offboard_py.sim.loop with this vehicle alone."""
+        loop.run_together([self], duration_s)
 
     def stop(self):
         self.running = False
@@ -537,70 +538,3 @@ class SimulatedPx4:
     def close_links(self):
         for link in self.links:
             link.close()
-
-
-def run_together(sims, duration_s=None):
-    """Run simulated PX4s in one loop on their (shared) clock until each is stopped, or for duration_s
-    of its seconds: a fleet in one process wakes once for all its vehicles, where a process each wakes
-    once each (`sim_px4.py --vehicles N`).
-
-    The flight stacks step every 1/rate_hz s on the loop's schedule, and the process wakes every
-    steps_per_wakeup steps (and when a datagram comes in: requests are answered and setpoints taken at
-    once): the due steps run, and their streams go out, each message in a datagram of its own as PX4
-    sends them (real mavros reads at most 296 bytes of a datagram). A wake-up costs more than a sendto
-    (on the development machine the first sendto after 20 ms asleep takes 55-65 us, the next 8 us), so
-    two steps share one: every message keeps its own step's time and values, and the first step's
-    messages of a pair leave one step (10 ms) after their time_boot_ms."""
-    first = sims[0]
-    clock, period, batch = first.clock, 1.0 / first.rate_hz, first.steps_per_wakeup
-    if any(sim.clock is not clock or sim.rate_hz != first.rate_hz or sim.steps_per_wakeup != batch for sim in sims):
-        raise ValueError('simulated PX4s run together share one clock, rate and steps per wake-up')
-    speed = getattr(clock, 'speed', 1.0)
-    poller = select.poll()
-    by_fd = {}
-    for sim in sims:
-        sim.running = True
-        for link in sim.links:
-            by_fd[link.fileno()] = link
-            poller.register(link.fileno(), select.POLLIN)
-        for link, kind in zip(sim.links, ('onboard', 'GCS')):
-            log.info('simulated PX4 sysid %d, %s link on udp %s:%d -> %s:%d', sim.system_id, kind, link.bind[0],
-                     link.bind[1], *link.remote)
-    if speed != 1.0:
-        log.info('simulated time at %gx real time', speed)
-    next_s = clock()  # the schedule's time of the next step
-    end_s = None if duration_s is None else next_s + duration_s
-    while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):
-        wake_s = next_s + (batch - 1) * period
-        until_s = min([wake_s] + [d[0] for sim in sims for d in sim.deferred])
-        for fd, _ in poller.poll(max(0.0, until_s - clock()) / speed * 1000.0):
-            by_fd[fd].receive()
-        now = clock()
-        for sim in sims:
-            sim._send_deferred(now)
-        if now < wake_s:
-            continue
-        if now - next_s > 0.25 * speed:  # stalled a quarter second (suspended, overloaded): resynchronise
-            if speed != 1.0:
-                log.warning('the simulator fell %.2f s behind its clock at %gx: this machine cannot keep up '
-                            'at that speed', now - next_s, speed)
-            for sim in sims:
-                sim.step(period)
-            next_s = now + period
-            continue
-        # Streams are timed by each step's slot on the schedule, not by when poll() woke: at
-        # speed K a wake-up jitter of j wall seconds is K x j simulated ones, and at 10x a 1 ms
-        # late wake-up is a whole 100 Hz period: ATTITUDE, due every step, skipped one in three.
-        due = []
-        while next_s <= now:
-            due.append(next_s)
-            next_s += period
-        for sim in sims:
-            out = {}
-            for slot_s in due:
-                sim.step(period, slot_s - sim.boot_s, out)
-            for link, msgs in out.items():
-                link.send_many(msgs)  # a datagram per message, as PX4 (MavlinkLink.send_many)
-            if len(sims) > 1:  # what came in meanwhile is read now, not after every vehicle's turn
-                for fd, _ in poller.poll(0):
-                    by_fd[fd].receive()

@@ -14,7 +14,8 @@ import time
 from offboard_py.dialect import check_pymavlink_version
 from offboard_py.signing import SigningKeyError
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
-from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4, run_together
+from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
+from offboard_py.sim.loop import run_together
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.param_store import ParamRejected
 
