@@ -28,6 +28,7 @@ from mavros_msgs.msg import State
 from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
+from offboard_py.stack import SIM_PROCESSES
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
@@ -267,7 +268,7 @@ def main():
     p.add_argument('--speed', default='5',
                    help='also measure one vehicle in simulated time at this speed, the setpoint stream timed in '
                         'simulated seconds beside real time (default 5, what ./run test uses; 1: skip)')
-    p.add_argument('--sim-process', choices=('each', 'one'), default='each',
+    p.add_argument('--sim-process', choices=tuple(SIM_PROCESSES), default='each',
                    help='the scaling rows\' simulated vehicles: a process each (each, the default, as PX4 SITL '
                         'instances) or one process and loop for all (one: multi_uav.launch sim_process:=one)')
     p.add_argument('--pack-datagrams', action='store_true',
@@ -434,8 +435,8 @@ def _measure(args, scale, logdir):
         largest = n
     result['scaling'] = steps
     result['largest_n_holding_bar'] = largest
-    table = ['simulator framing: %s; simulated vehicles: %s' % (result['framing'], {
-        'each': 'a process each', 'one': 'one process for all (sim_process:=one)'}[args.sim_process]), '',
+    table = ['simulator framing: %s; simulated vehicles: %s (sim_process:=%s)'
+             % (result['framing'], SIM_PROCESSES[args.sim_process], args.sim_process), '',
              '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) '
              '| per vehicle: node / bridge / sim (%) | bridge / real mavros | bar |',
              '|---|---|---|---|---|---|---|---|']

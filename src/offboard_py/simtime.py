@@ -14,6 +14,7 @@ is, and no datagram or topic carries the clock between them. The ROS side follow
 Speed 1 is real time: nothing uses /clock and every process runs as it always did.
 No ROS, no MAVLink here.
 """
+import argparse
 import math
 import os
 import time
@@ -34,6 +35,14 @@ def parse_speed(text, what='speed'):
     if not math.isfinite(speed) or speed <= 0.0:
         raise SpeedError('%s must be a finite number > 0 (1 is real time), got %r' % (what, text))
     return speed
+
+
+def speed_option(text):
+    """parse_speed() as an argparse type for a --speed option: a bad value is argparse's usage error."""
+    try:
+        return parse_speed(text, '--speed')
+    except SpeedError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def speed_from_env(default=1.0, environ=os.environ):

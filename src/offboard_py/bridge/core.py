@@ -121,7 +121,7 @@ class Bridge:
     def publisher(self, name, data_class, queue_size=10, latch=False):
         """A topic; when it gains or loses a subscriber the link asks the handlers' needed() again."""
         return self._ros.publisher(name, data_class, queue_size=queue_size, latch=latch,
-                                   on_subscribers=self.link.needs_changed)
+                                   on_subscribers=self.needs_changed)
 
     def subscriber(self, name, data_class, callback):
         return self._ros.subscriber(name, data_class, callback)

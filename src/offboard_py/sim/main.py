@@ -13,7 +13,7 @@ import time
 
 from offboard_py.dialect import check_pymavlink_version
 from offboard_py.signing import SigningKeyError
-from offboard_py.simtime import SimClock, SpeedError, parse_speed
+from offboard_py.simtime import SimClock, speed_option
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
 from offboard_py.sim.loop import run_together
 from offboard_py.sim.geo import LocalFrame
@@ -74,13 +74,6 @@ def _vehicles(text):
     return value
 
 
-def _speed(text):
-    try:
-        return parse_speed(text, '--speed')
-    except SpeedError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-
-
 def _system_ids(text):
     try:
         ids = [int(v) for v in text.split(',') if v.strip()]
@@ -121,7 +114,7 @@ def parser():
     p.add_argument('--ideal', action='store_true',
                    help='an ideal vehicle: no estimator noise, no hover wander, local z 0 on the ground '
                         '(default: PX4 SITL\'s, seeded by the system id so runs repeat)')
-    p.add_argument('--speed', type=_speed, default=1.0, metavar='K',
+    p.add_argument('--speed', type=speed_option, default=1.0, metavar='K',
                    help='simulated time at K x real time (K > 0, default 1): the model, timers, streams and '
                         'time_boot_ms all run K times faster; the ROS side follows /clock (sim_clock)')
     p.add_argument('--rate', type=float, default=100.0, help='model and controller rate in Hz (default 100)')

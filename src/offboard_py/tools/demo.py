@@ -21,7 +21,7 @@ import time
 from offboard_py import stack
 from offboard_py.master import MasterTimeout, master_online, wait_for_master
 from offboard_py.tools.hover_phases import PhaseWatcher
-from offboard_py.simtime import SimClock, SpeedError, parse_speed
+from offboard_py.simtime import SimClock, speed_option
 
 HOLD_TOLERANCE_M = 0.1
 MASTER_TIMEOUT_S = 30.0
@@ -125,19 +125,12 @@ def plot(recorder, path, label='our mavros-compatible bridge + our simulated PX4
     plt.close(fig)
 
 
-def _speed(text):
-    try:
-        return parse_speed(text, '--speed')
-    except SpeedError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-
-
 def parse_args(argv):
     p = argparse.ArgumentParser(prog='takeoff_demo.py', description=__doc__.split('\n\n')[0])
     p.add_argument('--plot', default=os.path.join(os.getcwd(), 'out', 'takeoff.png'), help='PNG to write')
     p.add_argument('--hold', type=float, default=3.0, help='seconds at the setpoint before the plot (default 3)')
     p.add_argument('--timeout', type=float, default=120.0, help='give up after this many seconds (default 120)')
-    p.add_argument('--speed', type=_speed, default=1.0, metavar='K',
+    p.add_argument('--speed', type=speed_option, default=1.0, metavar='K',
                    help='simulated time at K x real time (default 1: real time); --hold and --timeout and the '
                         'times shown are then simulated seconds')
     p.add_argument('--keep-flying', action='store_true', help='keep flying after the plot, until Ctrl-C')
