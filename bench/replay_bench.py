@@ -9,13 +9,20 @@ process's setpoint subscription (the latency). Then, in a second window, every t
 publishes is subscribed here and its rate and header stamps measured (a subscriber makes the bridge decode
 and publish what it otherwise skips, so that window's CPU is reported apart).
 
-    ./run bench --replay [--duration 60] [--rates-duration 15] [--runs 1] [--out out/bench-replay.json]
+With --compare, real mavros takes the same replay in turns with the bridge (bridge, mavros, bridge, ...:
+--runs pairs), started as the PX4 user guide starts it (roslaunch mavros px4.launch, fcu_url as above), and
+a table sets the two side by side. Real mavros is looked for with `rospack find mavros`, in this
+environment or in the one a --mavros-setup file (a workspace's setup.bash) makes.
+
+    ./run bench --replay [--duration 60] [--rates-duration 15] [--runs 1] [--compare [--mavros-setup FILE]]
+                         [--out out/bench-replay.json]
 """
 
 import argparse
 import json
 import os
 import signal
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -29,6 +36,7 @@ from mavros_msgs.msg import State
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import benchmark  # noqa: E402  (bench/ is not a package)
+from offboard_py import stack  # noqa: E402
 from offboard_py.tools.streamstats import latencies_ms, percentile  # noqa: E402
 
 MAVROS_CPU_PCT = benchmark.MAVROS_CPU_PCT  # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts"
@@ -37,6 +45,63 @@ CPU_TARGET_PCT = 2.0
 LATENCY_P99_MS = 2.0
 SETTLE_S = 10.0  # after connection: the parameter and mission pulls are over
 CLK_TCK = os.sysconf('SC_CLK_TCK')
+FCU_URL = 'udp://:14540@127.0.0.1:14580'  # mavros's px4.launch with PX4 SITL's onboard ports
+SIDES = {'bridge': 'our bridge', 'mavros': 'real mavros'}
+NODE_START_S = 30.0  # roslaunch to a running mavros_node
+
+
+def side_command(side, mavros_setup=None):
+    """The ROS side's command line: the bridge as mavros's node (/mavros), or real mavros as px4.launch starts it."""
+    if side == 'bridge':
+        return ['rosrun', 'offboard_py', 'mavros_bridge.py', '__name:=mavros', '_fcu_url:=' + FCU_URL]
+    return stack.in_setup(['roslaunch', 'mavros', 'px4.launch', 'fcu_url:=' + FCU_URL], mavros_setup)
+
+
+def descendants(pid):
+    """The pids under pid, children first (from /proc/PID/task/TID/children)."""
+    found, todo = [], [pid]
+    while todo:
+        parent = todo.pop(0)
+        try:
+            tids = os.listdir('/proc/%d/task' % parent)
+        except OSError:
+            continue
+        for tid in tids:
+            try:
+                kids = [int(k) for k in open('/proc/%d/task/%s/children' % (parent, tid)).read().split()]
+            except OSError:
+                continue
+            found.extend(kids)
+            todo.extend(kids)
+    return found
+
+
+def process_named(pid, name):
+    """pid itself, or the first process under it, whose command name (/proc/PID/comm) is name; None if none."""
+    for candidate in [pid] + descendants(pid):
+        try:
+            if open('/proc/%d/comm' % candidate).read().strip() == name[:15]:
+                return candidate
+        except OSError:
+            continue
+    return None
+
+
+def measured_pid(side, proc, timeout_s=NODE_START_S):
+    """The process whose CPU is the ROS side's: the bridge's python (rosrun may exec it or fork it), or the
+    mavros_node that roslaunch starts. RuntimeError naming the side when it does not come up in time."""
+    if side == 'bridge':
+        return bridge_pid(proc.pid)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        pid = process_named(proc.pid, 'mavros_node')
+        if pid is not None:
+            return pid
+        if proc.poll() is not None:
+            break
+        time.sleep(0.2)
+    raise RuntimeError('no mavros_node under roslaunch mavros px4.launch within %.0f s (roslaunch %s)'
+                       % (timeout_s, 'exited with %s' % proc.returncode if proc.poll() is not None else 'still running'))
 
 
 def wakeups(pid):
@@ -117,35 +182,35 @@ def stop(proc, sig=signal.SIGINT, timeout=20):
             proc.wait()
 
 
-def run_once(args, logdir, index):
-    """One replay: the bridge and offb_node on the replayed stream; CPU, wake-ups, latency, topic rates."""
+def run_once(args, logdir, index, side='bridge'):
+    """One replay: the ROS side (the bridge, or real mavros) and offb_node on the replayed stream; CPU,
+    wake-ups, latency, topic rates."""
     setpoint_log = os.path.join(logdir, 'replay-setpoints-%d.txt' % index)
     stats_file = os.path.join(logdir, 'replay-stats-%d.json' % index)
     replay = start([sys.executable, os.path.join(HERE, 'px4_replay.py'), '--setpoint-log', setpoint_log,
                     '--stats', stats_file] + (['--data', args.data] if args.data else []), logdir, 'replay-%d' % index)
     bridge_env = None
-    if args.bridge_src:  # another checkout's offboard_py, ahead of this one's
+    if args.bridge_src and side == 'bridge':  # another checkout's offboard_py, ahead of this one's
         bridge_env = {'PYTHONPATH': os.path.abspath(args.bridge_src) + os.pathsep + os.environ.get('PYTHONPATH', '')}
-    bridge = start(['rosrun', 'offboard_py', 'mavros_bridge.py', '__name:=mavros',
-                    '_fcu_url:=udp://:14540@127.0.0.1:14580'], logdir, 'bridge-%d' % index, env=bridge_env)
+    bridge = start(side_command(side, args.mavros_setup), logdir, '%s-%d' % (side, index), env=bridge_env)
     node = start(['rosrun', 'offboard_py', 'offb_node.py'], logdir, 'node-%d' % index)
     state = []
     stamps = []
     state_sub = rospy.Subscriber('/mavros/state', State, lambda m: state.append(m))
     sp_sub = rospy.Subscriber('/mavros/setpoint_position/local', PoseStamped,
                               lambda m: stamps.append(m.header.stamp.to_nsec()), tcp_nodelay=True)
-    result = {}
+    result = {'side': side}
     try:
         deadline = time.monotonic() + 60.0
         while not (state and state[-1].connected):
             if time.monotonic() > deadline:
-                raise RuntimeError('the bridge did not connect to the replay within 60 s (logs in %s)' % logdir)
+                raise RuntimeError('%s did not connect to the replay within 60 s (logs in %s)' % (SIDES[side], logdir))
             if bridge.poll() is not None:
-                raise RuntimeError('the bridge exited with %s (see %s)' % (bridge.returncode, logdir))
+                raise RuntimeError('%s exited with %s (see %s)' % (SIDES[side], bridge.returncode, logdir))
             time.sleep(0.2)
         state_sub.unregister()  # the measured window has offb_node's subscribers and the setpoint one
         time.sleep(SETTLE_S)
-        pids = {'bridge': bridge_pid(bridge.pid), 'node': bridge_pid(node.pid), 'replay': replay.pid}
+        pids = {'bridge': measured_pid(side, bridge), 'node': bridge_pid(node.pid), 'replay': replay.pid}
         t0 = time.time_ns()
         cpu, wake = measure_window(pids, args.duration)
         t1 = time.time_ns()
@@ -166,6 +231,8 @@ def run_once(args, logdir, index):
         for proc in (node, bridge):
             stop(proc)
         stop(replay, signal.SIGTERM)
+        if side == 'mavros':
+            forget_params('/mavros')  # px4.launch's parameters are not the bridge's defaults
     if not os.path.exists(setpoint_log):
         raise RuntimeError('the replay wrote no setpoint log (see %s/replay-%d.log)' % (logdir, index))
     rows = [tuple(map(int, line.split())) for line in open(setpoint_log)]
@@ -176,6 +243,15 @@ def run_once(args, logdir, index):
     result['setpoints_at_fcu_hz'] = len(inside) / ((t1 - t0) / 1e9)
     result['replay'] = json.load(open(stats_file))
     return result
+
+
+def forget_params(namespace):
+    """Delete what a launch left on the parameter server under namespace (nothing there: nothing to do)."""
+    try:
+        if rospy.has_param(namespace):
+            rospy.delete_param(namespace)
+    except (KeyError, OSError):
+        pass
 
 
 def bridge_pid(rosrun_pid):
@@ -194,20 +270,44 @@ def main(argv=None):
     p.add_argument('--runs', type=int, default=1, help='replays one after the other (1)')
     p.add_argument('--bridge-src', metavar='DIR',
                    help="run the bridge from another checkout's src/ (the one holding offboard_py/), for A/B runs")
+    p.add_argument('--compare', action='store_true',
+                   help='real mavros on the same replay, in turns with the bridge (--runs pairs), side by side')
+    p.add_argument('--mavros-setup', metavar='FILE',
+                   help="a setup.bash that puts real mavros on the package path (default: this environment's)")
     p.add_argument('--data', help='the replay data (default bench/data/px4-hover-replay.json.xz)')
     p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench-replay.json'), help='JSON output')
     args = p.parse_args(argv)
+    if args.runs < 1 or args.duration <= 1 or args.rates_duration <= 1:
+        p.error('--runs must be 1 or more and the durations above 1 s')
+    if args.mavros_setup and not args.compare:
+        p.error('--mavros-setup goes with --compare')
+    if args.mavros_setup and not os.path.isfile(args.mavros_setup):
+        p.error('--mavros-setup %s: no such file' % args.mavros_setup)
+    sides = ('bridge',)
+    if args.compare:
+        where = stack.rospack_find('mavros', args.mavros_setup)
+        if where is None:
+            p.error('--compare needs real mavros, and `rospack find mavros` finds no package %s (install it, or '
+                    'name its workspace\'s setup.bash with --mavros-setup; without --compare the bridge is set '
+                    'beside the figures recorded for it on PX4 SITL, %.2f-%.2f %%)'
+                    % (('in the environment of ' + args.mavros_setup if args.mavros_setup else 'here',)
+                       + MAVROS_CPU_PCT))
+        print('real mavros: %s' % where, flush=True)
+        sides = ('bridge', 'mavros')
     logdir = tempfile.mkdtemp(prefix='offboard_replay_')
     core = benchmark.start_master(logdir, p.error)
     rospy.init_node('replay_benchmark', anonymous=True, disable_signals=True)
     runs = []
     try:
         for i in range(args.runs):
-            print('replay %d of %d: PX4 SITL hover, one message a datagram, %.0f s window ...'
-                  % (i + 1, args.runs, args.duration), flush=True)
-            runs.append(run_once(args, logdir, i))
-            benchmark.forget_stale_nodes(('/mavros', '/offb_node'))
-            print_run(runs[-1])
+            for side in sides:
+                print('replay %d of %d: %s, PX4 SITL hover, one message a datagram, %.0f s window ...'
+                      % (i + 1, args.runs, SIDES[side], args.duration), flush=True)
+                runs.append(run_once(args, logdir, len(runs), side))
+                benchmark.forget_stale_nodes(('/mavros', '/offb_node'))
+                print_run(runs[-1])
+        if args.compare:
+            print(compare_table(runs), flush=True)
     finally:
         benchmark.stop_master(core)
     result = {'machine': benchmark.machine(), 'command': ' '.join(sys.argv), 'bridge_src': args.bridge_src, 'date_utc': time.strftime(
@@ -218,29 +318,72 @@ def main(argv=None):
 
 def print_run(r):
     fmt = benchmark.fmt
-    bridge = r['cpu_pct']['bridge']
-    lines = ['| replayed PX4 SITL hover (one message a datagram) | value | target |', '|---|---|---|',
-             '| bridge CPU (%% of one core) | %s %% | <= %.1f %% |' % (fmt(bridge, 2), CPU_TARGET_PCT),
+    side = r.get('side', 'bridge')
+    cpu = r['cpu_pct']['bridge']  # the ROS side's process, whichever it is
+    lines = ['| replayed PX4 SITL hover (one message a datagram), %s | value | target |' % SIDES[side], '|---|---|---|',
+             '| %s CPU (%% of one core) | %s %% | <= %.1f %% |' % (SIDES[side], fmt(cpu, 2), CPU_TARGET_PCT),
              '| real mavros 1.21 on the live stream (recorded) | %.2f-%.2f %% | |' % MAVROS_CPU_PCT,
-             '| bridge / mavros | %.2f-%.2f | |' % (bridge / MAVROS_CPU_PCT[1], bridge / MAVROS_CPU_PCT[0]),
-             '| bridge wake-ups (context switches) per s | %s | |' % fmt(r['wakeups_per_s']['bridge'], 0),
+             '| %s / recorded mavros | %.2f-%.2f | |' % (SIDES[side], cpu / MAVROS_CPU_PCT[1], cpu / MAVROS_CPU_PCT[0]),
+             '| %s wake-ups (context switches) per s | %s | |' % (SIDES[side], fmt(r['wakeups_per_s']['bridge'], 0)),
              '| offb_node CPU | %s %% | |' % fmt(r['cpu_pct']['node'], 2),
              '| replay CPU (not measured against anything) | %s %% | |' % fmt(r['cpu_pct']['replay'], 2),
              '| latency ROS publish -> FCU p50 / p99 / max | %s / %s / %s ms | p99 <= %.0f |'
              % (fmt(r['latency_ms']['p50'], 2), fmt(r['latency_ms']['p99'], 2), fmt(r['latency_ms']['max'], 2),
                 LATENCY_P99_MS),
              '| setpoints at the FCU | %s Hz | 20 |' % fmt(r['setpoints_at_fcu_hz'], 2),
-             '| the bridge\'s answer to PX4\'s TIMESYNC p50 / p99 / max | %s / %s / %s ms | < 10 (RTT limit) |'
+             '| the answer to PX4\'s TIMESYNC p50 / p99 / max | %s / %s / %s ms | < 10 (RTT limit) |'
              % tuple(fmt(r['replay'].get('timesync answer ms ' + k), 2) for k in ('p50', 'p99', 'max')),
-             '| the bridge\'s TIMESYNC round trip (timesync_status) p50 / max | %s / %s ms | < 10 |'
+             '| the TIMESYNC round trip (timesync_status) p50 / max | %s / %s ms | < 10 |'
              % (fmt(r.get('timesync_rtt_ms', {}).get('p50'), 2), fmt(r.get('timesync_rtt_ms', {}).get('max'), 2)),
-             '| bridge CPU with every topic subscribed | %s %% | |' % fmt(r['bridge_cpu_pct_all_topics_subscribed'], 2),
+             '| %s CPU with every topic subscribed | %s %% | |' % (SIDES[side], fmt(r['bridge_cpu_pct_all_topics_subscribed'], 2)),
              '', '| topic (all subscribed) | rate (Hz) | stamp lag p50 / max (ms) |', '|---|---|---|']
     for topic, t in r['topics'].items():
         lines.append('| %s | %s | %s / %s |' % (topic, fmt(t['rate_hz'], 1), fmt(t['stamp_lag_p50_ms'], 1),
                                                fmt(t['stamp_lag_max_ms'], 1)))
     print('\n'.join(lines), flush=True)
 
+
+def compare_table(runs):
+    """The bridge and real mavros side by side: each figure as the runs' values in order, the ratio of the
+    medians, and the telemetry topics both publish with each one's rate."""
+    fmt = benchmark.fmt
+    by_side = {side: [r for r in runs if r.get('side') == side] for side in SIDES}
+
+    def values(side, get):
+        out = []
+        for r in by_side[side]:
+            try:
+                v = get(r)
+            except (KeyError, TypeError):
+                v = None
+            out.append(v)
+        return out
+
+    def median(vals):
+        vals = [v for v in vals if v is not None]
+        return statistics.median(vals) if vals else None
+
+    rows = [('CPU, % of one core', lambda r: r['cpu_pct']['bridge'], 2),
+            ('wake-ups per s', lambda r: r['wakeups_per_s']['bridge'], 0),
+            ('CPU with every topic subscribed, %', lambda r: r['bridge_cpu_pct_all_topics_subscribed'], 2),
+            ('offb_node CPU, %', lambda r: r['cpu_pct']['node'], 2),
+            ('latency ROS publish -> FCU p99, ms', lambda r: r['latency_ms']['p99'], 2),
+            ('setpoints at the FCU, Hz', lambda r: r['setpoints_at_fcu_hz'], 2),
+            ("answer to PX4's TIMESYNC p99, ms", lambda r: r['replay']['timesync answer ms p99'], 2)]
+    lines = ['| on the same replay (runs in turn) | our bridge | real mavros | bridge / mavros (medians) |',
+             '|---|---|---|---|']
+    for label, get, digits in rows:
+        ours, theirs = values('bridge', get), values('mavros', get)
+        a, b = median(ours), median(theirs)
+        lines.append('| %s | %s | %s | %s |' % (label, ' / '.join(fmt(v, digits) for v in ours),
+                                                ' / '.join(fmt(v, digits) for v in theirs),
+                                                fmt(a / b, 2) if a is not None and b else '-'))
+    common = sorted(set.intersection(*[set(r['topics']) for r in runs])) if runs else []
+    lines += ['', '| topic both publish (all subscribed) | our bridge, Hz | real mavros, Hz |', '|---|---|---|']
+    for topic in common:
+        lines.append('| %s | %s | %s |' % (topic, ' / '.join(fmt(v, 1) for v in values('bridge', lambda r: r['topics'][topic]['rate_hz'])),
+                                          ' / '.join(fmt(v, 1) for v in values('mavros', lambda r: r['topics'][topic]['rate_hz']))))
+    return '\n'.join(lines)
 
 if __name__ == '__main__':
     sys.exit(main(rospy.myargv()[1:]))

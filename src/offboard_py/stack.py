@@ -5,7 +5,8 @@ mavros-compatible bridge, `px4_sih` a real PX4 SITL with PX4's SIH quadrotor (of
 `mavros` real mavros's px4.launch. This module names the choices once, says in one line what is
 wrong with a choice (`python -m offboard_py.stack fcu:=... bridge:=...`, run by the launch files
 when an argument has no such value, exits 1 and so ends the launch), and finds the real parts a
-user has built (`find_real_parts`: the cross-stack test tier and `./run bench --compare` use it).
+user has built (`find_real_parts`, for the cross-stack test tier; `rospack_find`, also for
+`./run bench --replay --compare`).
 """
 
 import os
@@ -59,11 +60,16 @@ def read_config(path):
     return values
 
 
-def rospack_find(package):
-    """The package's folder, or None when ROS cannot find it."""
+def in_setup(cmd, setup=None):
+    """cmd run in the environment a setup.bash makes (a workspace's devel/setup.bash; None: this one)."""
+    return list(cmd) if setup is None else ['bash', '-c', 'source "$0" && exec "$@"', setup] + list(cmd)
+
+
+def rospack_find(package, setup=None):
+    """The package's folder, or None when ROS cannot find it (in this environment, or in setup's)."""
     try:
-        out = subprocess.run(['rospack', 'find', package], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                             universal_newlines=True, timeout=30)
+        out = subprocess.run(in_setup(['rospack', 'find', package], setup), stdout=subprocess.PIPE,
+                             stderr=subprocess.DEVNULL, universal_newlines=True, timeout=30)
     except (OSError, subprocess.TimeoutExpired):
         return None
     return out.stdout.strip() or None if out.returncode == 0 else None
