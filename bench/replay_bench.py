@@ -220,11 +220,11 @@ def run_once(args, logdir, index, side='bridge'):
         cpu_sub, wake_sub = measure_window({'bridge': pids['bridge']}, args.rates_duration)
         r1 = time.time_ns()
         rates.close()
-        result = {'timesync_rtt_ms': {'p50': percentile(rates.rtt_ms, 50), 'max': max(rates.rtt_ms or [None])},
+        result.update({'timesync_rtt_ms': {'p50': percentile(rates.rtt_ms, 50), 'max': max(rates.rtt_ms or [None])},
                   'cpu_pct': cpu, 'wakeups_per_s': wake, 'topics': rates.table(r0, r1),
                   'bridge_cpu_pct_all_topics_subscribed': cpu_sub['bridge'],
                   'bridge_wakeups_per_s_all_topics_subscribed': wake_sub['bridge'],
-                  'last_state': {'connected': state[-1].connected, 'armed': state[-1].armed, 'mode': state[-1].mode}}
+                  'last_state': {'connected': state[-1].connected, 'armed': state[-1].armed, 'mode': state[-1].mode}})
     finally:
         sp_sub.unregister()
         state_sub.unregister()

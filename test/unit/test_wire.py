@@ -1,6 +1,7 @@
 """The wire layer (offboard_py.wire) and the link's use of it, datagram by datagram.
 
-- encode() and payload() are pymavlink's frame and payload, for every message of the dialect.
+- encode() and payload() are pymavlink's frame and payload, for every message of the dialect, and the
+  dialect's own packer (offboard_py.dialect) makes pymavlink's bytes.
 - Each link numbers its frames 0, 1, ... 255, 0 (PX4 and mavros count per channel; a
   receiver measures packet loss from the gaps). Before this, every frame said seq 0.
 - split() frames a datagram as the C library's parser does; crc_ok() checks a frame's CRC.
@@ -9,6 +10,8 @@
 - A link decodes only the types its handlers read, and still counts and checks the rest.
 """
 
+import contextlib
+import copy
 import random
 import socket
 import struct
@@ -16,6 +19,7 @@ import time
 
 import pytest
 
+import offboard_py.dialect
 from offboard_py import wire
 from offboard_py.dialect import mavlink
 from offboard_py.mavlink_link import NEEDED_RECHECK_S, MavlinkLink
@@ -48,21 +52,65 @@ def sample_message(cls, rng):
     return cls(*args)
 
 
+@contextlib.contextmanager
+def pymavlinks_own_pack():
+    """pymavlink's own MAVLink_message._pack in place of offboard_py.dialect's faster one, the reference it
+    is held to."""
+    assert mavlink.MAVLink_message._pack is offboard_py.dialect._pack_v2
+    mavlink.MAVLink_message._pack = offboard_py.dialect._PYMAVLINK_PACK
+    try:
+        yield
+    finally:
+        mavlink.MAVLink_message._pack = offboard_py.dialect._pack_v2
+
+
+def _all_zero(cls):
+    return cls(*[(b'' if t == 'char' else [0] * n if n else 0) for t, n in (
+        (t, cls.array_lengths[cls.ordered_fieldnames.index(f)]) for f, t in zip(cls.fieldnames, cls.fieldtypes))])
+
+
 @pytest.mark.parametrize('msg_id', sorted(mavlink.mavlink_map))
 def test_encode_is_pymavlinks_frame(msg_id):
+    """The dialect packs unsigned MAVLink 2 frames itself (offboard_py.dialect._pack_v2): the same bytes
+    as pymavlink's own _pack, and the same header, payload, CRC and buffer left on the message."""
     rng = random.Random(msg_id)
     cls = mavlink.mavlink_map[msg_id]
-    for seq in (0, 77, 255):
-        msg = sample_message(cls, rng)
+    for seq, msg in ((0, sample_message(cls, rng)), (77, sample_message(cls, rng)), (255, _all_zero(cls))):
         reference = mavlink.MAVLink(None, srcSystem=42, srcComponent=190)
         reference.seq = seq
-        assert wire.encode(msg, seq, 42, 190) == msg.pack(reference), cls.msgname
-        # and the message is left as it was: pymavlink can still pack it
-        assert msg.pack(reference) == wire.encode(msg, seq, 42, 190)
+        reference_msg = copy.deepcopy(msg)
+        with pymavlinks_own_pack():
+            expected = reference_msg.pack(reference)
+        assert wire.encode(msg, seq, 42, 190) == expected, cls.msgname
+        assert msg.pack(reference) == expected and reference.seq == seq, cls.msgname
+        for name in ('_payload', '_crc', '_msgbuf'):
+            assert getattr(msg, name) == getattr(reference_msg, name), (cls.msgname, name)
+        assert vars(msg._header) == vars(reference_msg._header), cls.msgname
         # the whole payload: as long as pymavlink's struct for the class, the frame's trimmed one its start
         body = wire.payload(msg)
         assert len(body) == wire.payload_size(cls) == cls.unpacker.size, cls.msgname
-        assert body.startswith(msg.pack(reference)[wire.HEADER_V2:-2]) and not body[len(body.rstrip(b'\x00')):].strip(b'\x00')
+        assert body.startswith(expected[wire.HEADER_V2:-2]) and not body[len(body.rstrip(b'\x00')):].strip(b'\x00')
+
+
+def test_signed_and_mavlink1_frames_are_pymavlinks_own():
+    """What the dialect's packer does not make goes to pymavlink's: a signed frame that verifies with the
+    key, a MAVLink 1 frame."""
+    key = bytes(range(32))
+    frames = []
+    for own in (False, True):
+        signer = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+        signer.signing.secret_key, signer.signing.sign_outgoing, signer.signing.timestamp = key, True, 1000
+        with pymavlinks_own_pack() if own else contextlib.nullcontext():
+            frames.append(bytes(copy.deepcopy(HB).pack(signer)))
+    signed = frames[0]
+    assert signed == frames[1]
+    assert signed[2] & wire.IFLAG_SIGNED and len(signed) == wire.HEADER_V2 + 9 + 2 + wire.SIGNATURE_LEN
+    reader = mavlink.MAVLink(None)
+    reader.signing.secret_key = key
+    (decoded,) = reader.parse_buffer(signed)
+    assert decoded.get_type() == 'HEARTBEAT' and reader.signing.badsig_count == 0
+    v1 = bytes(copy.deepcopy(HB).pack(mavlink.MAVLink(None), force_mavlink1=True))
+    assert v1[0] == wire.MAGIC_V1 and len(v1) == wire.HEADER_V1 + 9 + 2
 
 
 def _raw_frame(msg_id, body, rng, v1=False):
