@@ -19,6 +19,7 @@ from tf2_msgs.msg import TFMessage
 
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
+from offboard_py.sim.telemetry import BARO_RATE_HZ, MAG_RATE_HZ
 from offboard_py.testing.mavlink_listener import MavlinkListener
 from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, yaw_of
 from offboard_py.bridge.mavlink_passthrough import frame_to_msg
@@ -426,7 +427,9 @@ class BridgeTest(OffboardTestCase):
         """The topics mavros users reach for, at the rate of the FCU message behind each (PX4's
         onboard stream: GLOBAL_POSITION_INT and HIGHRES_IMU 50 Hz, LOCAL_POSITION_NED 30 Hz,
         POSITION_TARGET_LOCAL_NED 10 Hz, GPS_RAW_INT 8 Hz, SYSTEM_TIME 1 Hz, BATTERY_STATUS 0.5 Hz;
-        /mavlink/from carries every frame: about 405 a second).
+        /mavlink/from carries every frame: about 405 a second). imu/mag, imu/static_pressure and
+        imu/temperature_imu follow HIGHRES_IMU's fresh-field bits, as mavros's do: PX4 SIH's magnetometer
+        and barometer rates (sim.telemetry, held to the recording by test_sim_telemetry).
         raw/gps_vel is left out: on the ground GPS_RAW_INT has no course, and mavros then
         publishes none (a unit test holds the moving case)."""
         expected = {  # topic: (type, FCU rate in Hz)
@@ -434,8 +437,9 @@ class BridgeTest(OffboardTestCase):
             'global_position/compass_hdg': (Float64, 50), 'global_position/raw/fix': (NavSatFix, 8),
             'global_position/raw/satellites': (UInt32, 8),
             'local_position/odom': (Odometry, 30), 'local_position/velocity_body': (TwistStamped, 30),
-            'imu/data_raw': (Imu, 50), 'imu/mag': (MagneticField, 50), 'imu/static_pressure': (FluidPressure, 50),
-            'imu/temperature_imu': (Temperature, 50), 'setpoint_raw/target_local': (PositionTarget, 10),
+            'imu/data_raw': (Imu, 50), 'imu/mag': (MagneticField, MAG_RATE_HZ),
+            'imu/static_pressure': (FluidPressure, BARO_RATE_HZ), 'imu/temperature_imu': (Temperature, BARO_RATE_HZ),
+            'setpoint_raw/target_local': (PositionTarget, 10),
             'time_reference': (TimeReference, 1), 'battery': (BatteryState, 0.5), '/tf': (TFMessage, 30),
             'vfr_hud': (VFR_HUD, 10), 'estimator_status': (EstimatorStatus, 1), 'timesync_status': (TimesyncStatus, 10),
             'setpoint_raw/target_attitude': (AttitudeTarget, 10), '/mavlink/from': (Mavlink, 405)}

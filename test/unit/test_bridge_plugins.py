@@ -19,7 +19,7 @@ from mavros_msgs.srv import (CommandBoolRequest, CommandTOLRequest, ParamGetRequ
 from offboard_py import frames
 from offboard_py.bridge import (command, core, global_position, home_position, imu, local_position, mission, node,
                                 param, setpoint, sys_status)
-from offboard_py.bridge.config import read_config
+from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import mavlink
 
@@ -44,6 +44,7 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~global_position/local', '~global_position/rel_alt', '~global_position/compass_hdg',
         '~global_position/raw/fix', '~global_position/raw/gps_vel', '~global_position/raw/satellites',
         '~altitude', '~imu/data', '~imu/data_raw', '~imu/mag', '~imu/static_pressure', '~imu/temperature_imu',
+        '~imu/diff_pressure', '~imu/temperature_baro',
         '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
         '~setpoint_raw/target_local', '~setpoint_raw/target_attitude', '~statustext/recv', '~vfr_hud', '~rc/in',
         '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics', '/tf', '/tf_static'}
@@ -577,6 +578,75 @@ def test_attitude_is_converted_once_and_shared_by_imu_and_local_position(monkeyp
     assert len(conversions) == 1
 
 
+def _highres(fields_updated, **values):
+    fields = dict(time_usec=2000000, xacc=0.5, yacc=0.25, zacc=-9.75, xgyro=0.1, ygyro=0.2, zgyro=0.3, xmag=0.21,
+                  ymag=0.0, zmag=0.43, abs_pressure=955.57, diff_pressure=0.0, pressure_alt=488.0, temperature=15.0)
+    fields.update(values)
+    return BUILD.highres_imu_encode(fields_updated=fields_updated, **fields)
+
+
+@pytest.mark.parametrize('fields_updated, topics', [
+    (0x3F, {'~imu/data_raw'}),                                                 # PX4 SIH's most messages
+    (0x1FF, {'~imu/data_raw', '~imu/mag'}),                                    # ... with the magnetometer
+    (0x1A3F, {'~imu/data_raw', '~imu/static_pressure', '~imu/temperature_imu'}),  # ... with the barometer
+    (0x400, {'~imu/diff_pressure'}),
+    (0x0, set()),
+])
+def test_highres_imu_publishes_what_its_fields_updated_says_is_fresh(fields_updated, topics):
+    """mavros 1.21's imu plugin: data_raw when the accelerometer or gyro is fresh, mag when the
+    magnetometer is, static_pressure, diff_pressure and temperature_imu when theirs are; nothing else."""
+    rig = Rig(imu.Imu)
+    rig.fcu.send(_highres(fields_updated, diff_pressure=1.5))
+    published = {topic for topic in ('~imu/data_raw', '~imu/mag', '~imu/static_pressure', '~imu/diff_pressure',
+                                     '~imu/temperature_imu', '~imu/temperature_baro') if rig.published(topic)}
+    assert published == topics
+    if '~imu/static_pressure' in topics:
+        [pressure] = rig.published('~imu/static_pressure')
+        assert pressure.fluid_pressure == pytest.approx(955.57), 'hPa, unconverted, as mavros 1.21 publishes it'
+        assert rig.published('~imu/temperature_imu')[0].temperature == 15.0
+    if '~imu/diff_pressure' in topics:
+        assert rig.published('~imu/diff_pressure')[0].fluid_pressure == pytest.approx(1.5)
+
+
+def test_imu_covariances_are_mavros_s_from_the_standard_deviations():
+    """px4_config.yaml's deviations (mavros's defaults): squared on the diagonal; 0 (the magnetometer's)
+    is unknown, element 0 -1; imu/data's acceleration is unknown until a HIGHRES_IMU has carried one."""
+    rig = Rig(imu.Imu)
+    rig.fcu.send(BUILD.attitude_quaternion_encode(0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    [before] = rig.published('~imu/data')
+    assert before.linear_acceleration_covariance[0] == -1.0
+    assert before.linear_acceleration_covariance[4] == pytest.approx(0.0003 ** 2)
+    rig.fcu.send(_highres(0x1FF))
+    rig.fcu.send(BUILD.attitude_quaternion_encode(20, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    data = rig.published('~imu/data')[-1]
+    gyro_var = math.radians(0.02) ** 2
+    assert list(data.orientation_covariance) == pytest.approx([1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0])
+    assert list(data.angular_velocity_covariance) == pytest.approx([gyro_var, 0, 0, 0, gyro_var, 0, 0, 0, gyro_var])
+    assert list(data.linear_acceleration_covariance) == pytest.approx([9e-8, 0, 0, 0, 9e-8, 0, 0, 0, 9e-8])
+    a = data.linear_acceleration
+    assert (a.x, a.y, a.z) == pytest.approx((0.5, -0.25, 9.75))
+    [raw] = rig.published('~imu/data_raw')
+    assert list(raw.orientation_covariance) == [-1.0] + [0.0] * 8
+    assert list(raw.angular_velocity_covariance) == list(data.angular_velocity_covariance)
+    [mag] = rig.published('~imu/mag')
+    assert list(mag.magnetic_field_covariance) == [-1.0] + [0.0] * 8
+    assert (mag.magnetic_field.x, mag.magnetic_field.z) == pytest.approx((0.21e-4, -0.43e-4))
+
+
+def test_imu_deviations_from_parameters_and_a_string_is_mavros_s_default_with_a_warning(caplog):
+    rig = Rig(imu.Imu, imu__linear_acceleration_stdev=0.5, imu__magnetic_stdev=0.1, imu__frame_id='imu_link',
+              imu__angular_velocity_stdev='0.0003490659 // 0.02 degrees')  # px4_config.yaml's, a string in YAML
+    assert 'imu/angular_velocity_stdev' in caplog.text and 'not a number' in caplog.text
+    rig.fcu.send(_highres(0x1FF))
+    [raw] = rig.published('~imu/data_raw')
+    assert raw.header.frame_id == 'imu_link'
+    assert raw.linear_acceleration_covariance[0] == pytest.approx(0.25)
+    assert raw.angular_velocity_covariance[0] == pytest.approx(math.radians(0.02) ** 2)
+    assert rig.published('~imu/mag')[0].magnetic_field_covariance[8] == pytest.approx(0.01)
+    with pytest.raises(ConfigError, match=r'~imu/orientation_stdev: -1 is outside'):
+        Rig(imu.Imu, imu__orientation_stdev=-1.0)
+
+
 def test_pose_orientation_is_identity_before_any_attitude():
     rig = Rig(local_position.LocalPosition)
     rig.fcu.send(BUILD.local_position_ned_encode(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
@@ -617,7 +687,7 @@ def test_unneeded_types_are_not_decoded_and_a_subscriber_brings_them_back(monkey
     decode_checked = wire.decode_checked
     monkeypatch.setattr(wire, 'decode_checked', lambda frame: late.append(frame) or decode_checked(frame))
     del decoded[:]
-    accel = BUILD.highres_imu_encode(1010, 0.5, 0.25, -9.75, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+    accel = BUILD.highres_imu_encode(1010, 0.5, 0.25, -9.75, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, imu.ACCEL_GYRO)
     datagram(north)
     datagram(accel)
     datagram(south)  # the attitude of now, while nobody listens

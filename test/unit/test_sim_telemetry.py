@@ -448,3 +448,64 @@ def test_link_node_status_is_the_links_own_as_px4_fills_it():
     assert msg.rx_parse_err == 70000 & 0xFFFF and (msg.tx_buf, msg.rx_buf, msg.tx_overflows, msg.rx_overflows) == (0, 0, 0, 0)
     stats.update(bytes_sent=36000)
     assert b.link_node_status(counters, 13.0).tx_rate == 12000  # the next whole second
+
+
+def _recorded_hover():
+    """PX4 SITL (SIH)'s onboard stream in the recorded hover the replay benchmark sends: (window s, messages)."""
+    import lzma
+    with lzma.open(os.path.join(REPO, 'bench', 'data', 'px4-hover-replay.json.xz'), 'rt') as f:
+        data = json.load(f)
+    parser = M.MAVLink(None)
+    return data['window_us'] / 1e6, [parser.parse_buffer(bytes.fromhex(frame))[0] for _, frame in data['stream']]
+
+
+def test_highres_imu_marks_fresh_fields_at_px4_sihs_sensor_rates_and_holds_the_rest():
+    """fields_updated as PX4 SITL (SIH) sets it, counted in the recording: accelerometer and gyro fresh in
+    every message, the magnetometer and the barometer at their sensors' rates (mavros publishes imu/mag,
+    imu/static_pressure and imu/temperature_imu only then), diff_pressure never; between two samples the
+    barometer's pressure holds its value, as PX4 sends it."""
+    window_s, recorded = _recorded_hover()
+    recorded = [m for m in recorded if m.get_type() == 'HIGHRES_IMU']
+    assert len(recorded) > 1000
+
+    def rates(msgs, seconds):
+        return {bits: sum(1 for m in msgs if m.fields_updated & bits == bits) / seconds
+                for bits in (telemetry.HIGHRES_ACCEL_GYRO, telemetry.HIGHRES_MAG, telemetry.HIGHRES_BARO)}
+    f = make()
+    f.on_offboard_setpoint(hover_setpoint(), 0.0)
+    f.request_mode('OFFBOARD', 0.0)
+    f.request_arming(True, False, 0.0)
+    t = fly(f, 0.0, 10.0, hover_setpoint())
+    b = builder(f)
+    ours = []
+    for i in range(int(window_s * 50)):  # PX4's 50 Hz stream
+        t = fly(f, t, 0.02, hover_setpoint())
+        ours.append(b.build('HIGHRES_IMU', f.status(t), t))
+    want, got = rates(recorded, window_s), rates(ours, window_s)
+    for bits in want:
+        assert got[bits] == pytest.approx(want[bits], rel=0.03), (hex(bits), got, want)
+    assert not any(m.fields_updated & 0x400 for m in recorded + ours), 'no differential pressure on either'
+    assert {m.fields_updated & ~0x1FC0 for m in recorded + ours} == {telemetry.HIGHRES_ACCEL_GYRO}
+    for msgs in (recorded, ours):
+        for before, after in zip(msgs, msgs[1:]):
+            if not after.fields_updated & 0x200:
+                assert after.abs_pressure == before.abs_pressure, 'the barometer holds between its samples'
+
+
+def test_temperatures_are_px4_sihs_the_imus_fixed_and_the_barometers_the_atmospheres():
+    """In the recording: HIGHRES_IMU.temperature is 15.0 deg C throughout, SCALED_PRESSURE.temperature
+    the standard atmosphere's at the altitude its own pressure gives (centi-degrees, to one)."""
+    _, recorded = _recorded_hover()
+
+    def isa_cdeg(press_hpa):
+        alt = (1.0 - (press_hpa / 1013.25) ** (1 / 5.25588)) / 2.25577e-5
+        return (15.0 - 0.0065 * alt) * 100.0
+    f = make()
+    b = builder(f)
+    ours_imu, ours_baro = b.build('HIGHRES_IMU', f.status(1.0), 1.0), b.build('SCALED_PRESSURE', f.status(1.0), 1.0)
+    imu_temps = {m.temperature for m in recorded if m.get_type() == 'HIGHRES_IMU'}
+    assert imu_temps == {ours_imu.temperature}
+    baro = [m for m in recorded if m.get_type() == 'SCALED_PRESSURE']
+    assert baro, 'PX4 sends SCALED_PRESSURE on the onboard link'
+    for m in baro + [ours_baro]:
+        assert m.temperature == pytest.approx(isa_cdeg(m.press_abs), abs=1.0), (m.press_abs, m.temperature)

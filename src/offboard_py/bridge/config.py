@@ -1,5 +1,6 @@
 """The bridge's node parameters, read and checked without ROS (get(name, default) is rospy.get_param)."""
 
+import logging
 import math
 
 from offboard_py.dialect import mavlink
@@ -43,6 +44,7 @@ def read_config(get):
                                      ('cmd/command_ack_timeout', 5.0, 0.1, 600.0)):
         cfg[name] = float(_number(name, get(name, default), low, high))
     read_time_config(get, cfg)
+    read_imu_config(get, cfg)
     for key, name in (('fcu', 'fcu_url'), ('gcs', 'gcs_url')):
         try:  # mavconn's defaults for both: bind 14555, remote 14550
             cfg[key] = parse_udp_url(cfg[name]) if cfg[name] else None
@@ -101,3 +103,26 @@ def read_time_config(get, cfg):
             raise ConfigError('parameter ~%s: expected a whole number, got %r' % (name, value))
         filter_args[arg] = int(_number(name, value, 1, 1000000))
     cfg['time/filter'] = filter_args
+
+
+# mavros imu's standard deviations (px4_config.yaml's values; mavros's defaults are the same) for the
+# covariances of imu/data, imu/data_raw and imu/mag; 0 means unknown (element 0 is -1)
+IMU_STDEV_PARAMS = (('imu/linear_acceleration_stdev', 0.0003), ('imu/angular_velocity_stdev', 0.02 * math.pi / 180.0),
+                    ('imu/orientation_stdev', 1.0), ('imu/magnetic_stdev', 0.0))
+
+
+def read_imu_config(get, cfg):
+    """The imu plugin's frame_id and standard deviations. A value that is not a number is mavros's default,
+    with a warning naming it, as mavros reads it (px4_config.yaml's angular_velocity_stdev is the string
+    "0.0003490659 // 0.02 degrees", whose default is the same number); a negative or unfinite one is an error."""
+    frame_id = get('imu/frame_id', 'base_link')
+    if not isinstance(frame_id, str):
+        raise ConfigError('parameter ~imu/frame_id: expected a string, got %r' % (frame_id,))
+    cfg['imu/frame_id'] = frame_id
+    for name, default in IMU_STDEV_PARAMS:
+        value = get(name, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            logging.getLogger(__name__).warning('parameter ~%s: %r is not a number; using %g, as mavros does',
+                                                name, value, default)
+            value = default
+        cfg[name] = float(_number(name, value, 0.0, 1e6))

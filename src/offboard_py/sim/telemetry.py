@@ -146,8 +146,16 @@ PWM_DISARMED, PWM_MIN, PWM_MAX = 1000, 1000, 2000
 MOTORS = 4
 RC_CHANNEL_COUNT, RC_STICKS_US, RC_SWITCH_LOW_US, RC_UNUSED = 8, [1500] * 4, 1000, 0xFFFF
 RC_RSSI = 254  # full signal (255 would be "unknown")
-TEMPERATURE_C = 25.0
-HIGHRES_IMU_ALL_FIELDS = 0x1FFF  # fields_updated: every one of the 13 fields is fresh
+# PX4 SITL (SIH) as recorded (bench/data/px4-hover-replay.json.xz): HIGHRES_IMU.temperature 15.0 deg C
+# throughout, SCALED_PRESSURE.temperature the ISA's at the barometer's altitude (1181 cdeg at 489 m)
+IMU_TEMPERATURE_C = 15.0
+# HIGHRES_IMU.fields_updated as PX4 SITL (SIH) sets it: accelerometer and gyro fresh in every message,
+# the magnetometer (0x1C0) in 14.15 a second and the barometer (abs_pressure, pressure_alt, temperature:
+# 0x1A00) in 9.88, never diff_pressure: 887 of 1553 messages 0x3F, 356 0x1FF, 222 0x1A3F and 88 0x1BFF in
+# the recorded 31.37 s hover (bench/data/px4-hover-replay.json.xz, from reference/conversations/
+# takeoff-mavros-px4). Between its samples a sensor's fields hold their last value, as PX4 sends them.
+HIGHRES_ACCEL_GYRO, HIGHRES_MAG, HIGHRES_BARO = 0x3F, 0x1C0, 0x1A00
+MAG_RATE_HZ, BARO_RATE_HZ = 14.15, 9.88
 # ODOMETRY covariances: upper triangles of 6x6 matrices, row-major; only the diagonal is known
 _DIAGONAL = (0, 6, 11, 15, 18, 20)
 POSE_COVARIANCE = [0.0] * 21
@@ -221,6 +229,11 @@ def pressure_hpa(alt_amsl_m):
     return 1013.25 * (1.0 - 2.25577e-5 * alt_amsl_m) ** 5.25588
 
 
+def temperature_c(alt_amsl_m):
+    """ISA temperature at an altitude AMSL (15 deg C at sea level, 6.5 K a kilometre colder)."""
+    return 15.0 - 0.0065 * alt_amsl_m
+
+
 def euler(q):
     """(roll, pitch, yaw) in rad of a (w, x, y, z) NED/FRD quaternion."""
     w, x, y, z = q
@@ -285,6 +298,13 @@ def _finite_or_zero(values):
     return [v if v == v else 0.0 for v in values]
 
 
+def _next_sample_s(due_s, now_s, rate_hz):
+    """When a sensor sampling at rate_hz, sampled now for its sample due at due_s, is due next: one period
+    on from due_s (so the rate holds on a 50 Hz message), or from now after a pause (no burst to catch up)."""
+    next_s = due_s + 1.0 / rate_hz
+    return next_s if next_s > now_s else now_s + 1.0 / rate_hz
+
+
 class TelemetryBuilder:
     """Builds the autopilot's messages with `mav` (a pymavlink codec) from a flight Status."""
 
@@ -295,6 +315,8 @@ class TelemetryBuilder:
         self.ping_seq = 0
         self._for = None   # the Status the cache below belongs to
         self._cache = {}
+        self._mag = self._baro = None  # HIGHRES_IMU's held magnetometer and barometer fields
+        self._mag_due_s = self._baro_due_s = boot_s  # when each sensor's next sample is due
 
     def time_boot_ms(self, now_s):
         return int((now_s - self.boot_s) * 1000) & 0xFFFFFFFF
@@ -439,16 +461,26 @@ class TelemetryBuilder:
 
     def _highres_imu(self, st, now_s):
         ax, ay, az = st.specific_force
-        c, s = math.cos(st.yaw), math.sin(st.yaw)
-        mag_n, mag_d = 0.21, 0.43  # gauss, roughly central Europe
-        alt = self._amsl(st)
-        return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, *st.gyro,
-                                           c * mag_n, -s * mag_n, mag_d, pressure_hpa(alt), 0.0, alt, TEMPERATURE_C,
-                                           HIGHRES_IMU_ALL_FIELDS)
+        fresh = HIGHRES_ACCEL_GYRO
+        if self._mag is None or now_s >= self._mag_due_s:
+            c, s = math.cos(st.yaw), math.sin(st.yaw)
+            mag_n, mag_d = 0.21, 0.43  # gauss, roughly central Europe
+            self._mag = (c * mag_n, -s * mag_n, mag_d)
+            self._mag_due_s = _next_sample_s(self._mag_due_s, now_s, MAG_RATE_HZ)
+            fresh |= HIGHRES_MAG
+        if self._baro is None or now_s >= self._baro_due_s:
+            alt = self._amsl(st)
+            self._baro = (pressure_hpa(alt), alt)
+            self._baro_due_s = _next_sample_s(self._baro_due_s, now_s, BARO_RATE_HZ)
+            fresh |= HIGHRES_BARO
+        pressure, alt = self._baro
+        return self.mav.highres_imu_encode(self.time_usec(now_s), ax, ay, az, *st.gyro, *self._mag,
+                                           pressure, 0.0, alt, IMU_TEMPERATURE_C, fresh)
 
     def _scaled_pressure(self, st, now_s):
-        return self.mav.scaled_pressure_encode(self.time_boot_ms(now_s), pressure_hpa(self._amsl(st)),
-                                               0.0, int(TEMPERATURE_C * 100))
+        alt = self._amsl(st)
+        return self.mav.scaled_pressure_encode(self.time_boot_ms(now_s), pressure_hpa(alt), 0.0,
+                                               int(round(temperature_c(alt) * 100)))
 
     def _distance_sensor(self, st, now_s):
         w, x, y, z = st.attitude
