@@ -37,6 +37,16 @@ FAILURE_UNIT_SENSOR_GYRO = mavlink.FAILURE_UNIT_SENSOR_GYRO  # param1
 FAILURE_TYPE_OK = mavlink.FAILURE_TYPE_OK                    # param2: no failure
 FAILURE_TYPE_OFF = mavlink.FAILURE_TYPE_OFF                  # param2: the unit is off
 
+# HIGHRES_IMU.fields_updated: which of the message's fields are fresh (common.xml's HIGHRES_IMU_UPDATED_FLAGS,
+# which pymavlink 2.4.49's common.xml lacks: XACC 1 ... ZGYRO 32, XMAG 64 ... ZMAG 256, ABS_PRESSURE 512,
+# DIFF_PRESSURE 1024, PRESSURE_ALT 2048, TEMPERATURE 4096), grouped by sensor
+HIGHRES_IMU_UPDATED_ACCEL_GYRO = 0x3F
+HIGHRES_IMU_UPDATED_MAG = 0x1C0
+HIGHRES_IMU_UPDATED_ABS_PRESSURE = 0x200
+HIGHRES_IMU_UPDATED_DIFF_PRESSURE = 0x400
+HIGHRES_IMU_UPDATED_PRESSURE_ALT = 0x800
+HIGHRES_IMU_UPDATED_TEMPERATURE = 0x1000
+
 # PX4's "force" magic in COMPONENT_ARM_DISARM param2: arm or disarm whatever the checks say.
 # MAVLink defines the value in the command's documentation, not as an enum.
 ARM_DISARM_FORCE_MAGIC = 21196

@@ -21,7 +21,7 @@ from offboard_py.bridge import (command, core, global_position, home_position, i
                                 param, setpoint, sys_status)
 from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
-from offboard_py.dialect import mavlink
+from offboard_py.dialect import HIGHRES_IMU_UPDATED_ACCEL_GYRO, mavlink
 
 from bridge_rig import AUTO_LOITER, BUILD, OFFBOARD, FakeClock, FakeRos, Rig, heartbeat, same_rotation, wait_until
 
@@ -687,7 +687,7 @@ def test_unneeded_types_are_not_decoded_and_a_subscriber_brings_them_back(monkey
     decode_checked = wire.decode_checked
     monkeypatch.setattr(wire, 'decode_checked', lambda frame: late.append(frame) or decode_checked(frame))
     del decoded[:]
-    accel = BUILD.highres_imu_encode(1010, 0.5, 0.25, -9.75, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, imu.ACCEL_GYRO)
+    accel = BUILD.highres_imu_encode(1010, 0.5, 0.25, -9.75, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, HIGHRES_IMU_UPDATED_ACCEL_GYRO)
     datagram(north)
     datagram(accel)
     datagram(south)  # the attitude of now, while nobody listens

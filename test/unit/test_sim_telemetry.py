@@ -7,6 +7,7 @@ import os
 
 import pytest
 
+from offboard_py import dialect
 from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input, telemetry
 from offboard_py.sim.flight import HOVER_THRUST, Battery, Flight
@@ -484,11 +485,13 @@ def test_highres_imu_marks_fresh_fields_at_px4_sihs_sensor_rates_and_holds_the_r
     want, got = rates(recorded, window_s), rates(ours, window_s)
     for bits in want:
         assert got[bits] == pytest.approx(want[bits], rel=0.03), (hex(bits), got, want)
-    assert not any(m.fields_updated & 0x400 for m in recorded + ours), 'no differential pressure on either'
-    assert {m.fields_updated & ~0x1FC0 for m in recorded + ours} == {telemetry.HIGHRES_ACCEL_GYRO}
+    assert not any(m.fields_updated & dialect.HIGHRES_IMU_UPDATED_DIFF_PRESSURE for m in recorded + ours), \
+        'no differential pressure on either'
+    sensors = telemetry.HIGHRES_MAG | telemetry.HIGHRES_BARO
+    assert {m.fields_updated & ~sensors for m in recorded + ours} == {telemetry.HIGHRES_ACCEL_GYRO}
     for msgs in (recorded, ours):
         for before, after in zip(msgs, msgs[1:]):
-            if not after.fields_updated & 0x200:
+            if not after.fields_updated & dialect.HIGHRES_IMU_UPDATED_ABS_PRESSURE:
                 assert after.abs_pressure == before.abs_pressure, 'the barometer holds between its samples'
 
 

@@ -21,15 +21,14 @@
 from sensor_msgs.msg import FluidPressure, Imu as ImuMsg, MagneticField, Temperature
 
 from offboard_py import frames, wire
+from offboard_py.bridge.config import IMU_STDEV_PARAMS
+from offboard_py.dialect import (HIGHRES_IMU_UPDATED_ABS_PRESSURE as ABS_PRESSURE,
+                                 HIGHRES_IMU_UPDATED_ACCEL_GYRO as ACCEL_GYRO,
+                                 HIGHRES_IMU_UPDATED_DIFF_PRESSURE as DIFF_PRESSURE, HIGHRES_IMU_UPDATED_MAG as MAG,
+                                 HIGHRES_IMU_UPDATED_TEMPERATURE as TEMPERATURE)
 
 GAUSS_TO_TESLA = 1e-4
-# HIGHRES_IMU.fields_updated (HIGHRES_IMU_UPDATED_FLAGS): which fields are fresh
-ACCEL_GYRO = 0x3F       # x/y/z acc, x/y/z gyro
-MAG = 0x1C0             # x/y/z mag
-ABS_PRESSURE = 0x200
-DIFF_PRESSURE = 0x400
-TEMPERATURE = 0x1000
-
+STDEV_DEFAULTS = dict(IMU_STDEV_PARAMS)
 
 def covariance(stdev):
     """mavros's 3x3 covariance of a standard deviation, row-major: stdev^2 on the diagonal, or element 0
@@ -45,10 +44,11 @@ class Imu:
         self.bridge = bridge
         cfg = bridge.cfg
         self.frame_id = cfg.get('imu/frame_id', 'base_link')
-        self.linear_cov = covariance(cfg.get('imu/linear_acceleration_stdev', 0.0003))
-        self.angular_cov = covariance(cfg.get('imu/angular_velocity_stdev', 0.0003490658503988659))
-        self.orientation_cov = covariance(cfg.get('imu/orientation_stdev', 1.0))
-        self.magnetic_cov = covariance(cfg.get('imu/magnetic_stdev', 0.0))
+        stdev = {name: cfg.get(name, default) for name, default in STDEV_DEFAULTS.items()}
+        self.linear_cov = covariance(stdev['imu/linear_acceleration_stdev'])
+        self.angular_cov = covariance(stdev['imu/angular_velocity_stdev'])
+        self.orientation_cov = covariance(stdev['imu/orientation_stdev'])
+        self.magnetic_cov = covariance(stdev['imu/magnetic_stdev'])
         self.unknown_cov = covariance(0.0)
         self._accel_flu = None  # none yet: imu/data's linear_acceleration_covariance[0] is -1
         self._imu_frame = None  # the latest HIGHRES_IMU, decoded when its acceleration is read

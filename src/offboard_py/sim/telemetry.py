@@ -16,7 +16,7 @@ EVENT / CURRENT_EVENT_SEQUENCE (its event interface, whose texts live in PX4's o
 import math
 import time
 
-from offboard_py import px4_modes
+from offboard_py import dialect, px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim.navigator import rtl_time_estimate
 from offboard_py.sim.vehicle import quaternion_from_thrust
@@ -154,7 +154,9 @@ IMU_TEMPERATURE_C = 15.0
 # 0x1A00) in 9.88, never diff_pressure: 887 of 1553 messages 0x3F, 356 0x1FF, 222 0x1A3F and 88 0x1BFF in
 # the recorded 31.37 s hover (bench/data/px4-hover-replay.json.xz, from reference/conversations/
 # takeoff-mavros-px4). Between its samples a sensor's fields hold their last value, as PX4 sends them.
-HIGHRES_ACCEL_GYRO, HIGHRES_MAG, HIGHRES_BARO = 0x3F, 0x1C0, 0x1A00
+HIGHRES_ACCEL_GYRO, HIGHRES_MAG = dialect.HIGHRES_IMU_UPDATED_ACCEL_GYRO, dialect.HIGHRES_IMU_UPDATED_MAG
+HIGHRES_BARO = (dialect.HIGHRES_IMU_UPDATED_ABS_PRESSURE | dialect.HIGHRES_IMU_UPDATED_PRESSURE_ALT
+                | dialect.HIGHRES_IMU_UPDATED_TEMPERATURE)
 MAG_RATE_HZ, BARO_RATE_HZ = 14.15, 9.88
 # ODOMETRY covariances: upper triangles of 6x6 matrices, row-major; only the diagonal is known
 _DIAGONAL = (0, 6, 11, 15, 18, 20)
