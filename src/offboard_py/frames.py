@@ -75,6 +75,12 @@ def orientation_enu_to_ned(q_enu_flu):
 orientation_ned_to_enu = orientation_enu_to_ned  # both fixed rotations are their own inverses
 
 
+def world_orientation_ned_to_enu(q_ned):
+    """The world frame's turn alone, q_NED_ENU * q, the body's axes left as they are: mavros's
+    transform_orientation_ned_enu, which its home_position plugin applies to HOME_POSITION.q."""
+    return quaternion_multiply(Q_ENU_NED, q_ned)
+
+
 def rotate(q, v):
     """Rotate vector v by quaternion q (x, y, z, w)."""
     qv = quaternion_multiply(quaternion_multiply(q, (v[0], v[1], v[2], 0.0)), (-q[0], -q[1], -q[2], q[3]))

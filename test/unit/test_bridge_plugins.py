@@ -252,6 +252,21 @@ def test_no_home_request_once_home_position_came():
     assert rig.fcu.got('COMMAND_LONG') == [], 'PX4 streams HOME_POSITION: mavros never asks'
 
 
+def test_home_position_is_published_as_mavros_1_21_publishes_it():
+    """PX4 SITL's recorded HOME_POSITION (the replay's) and what real mavros 1.21 published for it on the
+    same replay (bench/results/2026-11-25-mavros-side-by-side.md): the orientation turned from the NED
+    to the ENU world with the body's axes left alone (mavros's transform_orientation_ned_enu), no frame_id."""
+    q_wxyz = [0.9997270703315735, -0.0028137785848230124, 0.0032545786816626787, 0.022963205352425575]
+    mavros_xyzw = (0.7231512289896955, 0.6906763525447367, 0.004290976573794738, -0.00031169273762297195)
+    rig = Rig(home_position.HomePosition)
+    rig.fcu.send(BUILD.home_position_encode(473977433, 85455940, 488000, 0.0546, -0.128, -1.368, q_wxyz, 0, 0, 0))
+    [home] = rig.published('~home_position/home')
+    q = home.orientation
+    assert (q.x, q.y, q.z, q.w) == pytest.approx(mavros_xyzw, abs=1e-9)
+    assert home.header.frame_id == ''
+    assert (home.position.x, home.position.y, home.position.z) == pytest.approx((-0.128, 0.0546, 1.368))
+
+
 def test_takeoff_carries_position_and_yaw():
     rig = Rig(command.Command)
     rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED)
@@ -745,19 +760,46 @@ def test_global_fix_status_comes_from_gps_raw_int_and_local_starts_at_the_first_
     rig.fcu.send(BUILD.gps_raw_int_encode(1000000, 3, HOME_E7[0], HOME_E7[1], 488000, 70, 110, 150, 9000, 10))
     raw = rig.published('~global_position/raw/fix')[-1]
     assert (raw.status.status, raw.status.service) == (0, 1)
-    assert raw.position_covariance[0] == pytest.approx(0.49) and raw.position_covariance[8] == pytest.approx(1.96)
+    # as mavros 1.21: no receiver accuracies (h_acc, v_acc 0) -> EPH and EPV (times gps_uere 1.0) squared
+    assert list(raw.position_covariance) == pytest.approx([0.49, 0, 0, 0, 0.49, 0, 0, 0, 1.21])
+    assert raw.position_covariance_type == raw.COVARIANCE_TYPE_APPROXIMATED
+    assert raw.header.frame_id == 'base_link', 'mavros 1.21 stamps its fixes with the child frame'
     vel = rig.published('~global_position/raw/gps_vel')[-1].twist.linear
     assert (vel.x, vel.y) == pytest.approx((1.5, 0.0), abs=1e-9), 'course 90 deg: east'
     assert rig.published('~global_position/raw/satellites')[-1].data == 10
     rig.fcu.send(gpi)  # the first position with a fix is the origin
     north_10m = HOME_E7[0] + int(round(10.0 / 111194.9 * 1e7))
-    rig.fcu.send(BUILD.global_position_int_encode(2000, north_10m, HOME_E7[1], 493000, 5000, 100, -200, 0, 9000))
-    assert rig.published('~global_position/global')[-1].status.status == 0
+    rig.fcu.send(BUILD.global_position_int_encode(2000, north_10m, HOME_E7[1], 493000, 4000, 100, -200, 50, 9000))
+    fix = rig.published('~global_position/global')[-1]
+    assert (fix.status.status, fix.header.frame_id) == (0, 'base_link')
+    assert list(fix.position_covariance) == list(raw.position_covariance), 'the latest raw fix\'s covariance'
     odom = rig.published('~global_position/local')[-1]
     p, v = odom.pose.pose.position, odom.twist.twist.linear
-    assert (p.x, p.y, p.z) == pytest.approx((0.0, 10.0, 5.0), abs=0.05)
-    assert (v.x, v.y, v.z) == pytest.approx((-2.0, 1.0, 0.0)), 'NED cm/s -> ENU m/s'
-    assert rig.published('~global_position/rel_alt')[-1].data == 5.0
+    # z: the height above home (use_relative_alt), 4 m, though 5 m above the origin's altitude
+    assert (p.x, p.y, p.z) == pytest.approx((0.0, 10.0, 4.0), abs=0.05)
+    # as mavros 1.21: east and north from NED's vy and vx, vz as it comes (0.5 m/s down stays +0.5)
+    assert (v.x, v.y, v.z) == pytest.approx((-2.0, 1.0, 0.5))
+    assert odom.pose.covariance[0] == pytest.approx(0.49) and odom.pose.covariance[14] == pytest.approx(1.21)
+    assert (odom.pose.covariance[21], odom.pose.covariance[35]) == (99999.0, 99999.0)
+    assert odom.twist.covariance[0] == -1.0
+    assert rig.published('~global_position/rel_alt')[-1].data == 4.0
+
+
+def test_raw_fix_covariance_is_the_receivers_accuracy_when_it_gives_one_and_a_2d_fix_is_no_fix():
+    """Real mavros 1.21 on PX4 SITL's replayed GPS_RAW_INT (h_acc 900 mm, v_acc 1780 mm) published
+    [0.81, .., 0.81, .., 3.1684], type 2 (bench/results/2026-11-25-mavros-side-by-side.md); it reads
+    fix_type > 2 as a fix, so a 2D fix is none; with neither accuracy nor EPH/EPV the covariance is unknown."""
+    rig = Rig(global_position.GlobalPosition)
+    rig.fcu.send(BUILD.gps_raw_int_encode(1000000, 3, HOME_E7[0], HOME_E7[1], 488000, 70, 110, 0, 0, 10,
+                                          h_acc=900, v_acc=1780))
+    raw = rig.published('~global_position/raw/fix')[-1]
+    assert list(raw.position_covariance) == pytest.approx([0.81, 0, 0, 0, 0.81, 0, 0, 0, 3.1684])
+    assert raw.position_covariance_type == raw.COVARIANCE_TYPE_DIAGONAL_KNOWN
+    rig.fcu.send(BUILD.gps_raw_int_encode(1000000, 2, HOME_E7[0], HOME_E7[1], 488000, 0xFFFF, 0xFFFF, 0, 0, 4))
+    raw = rig.published('~global_position/raw/fix')[-1]
+    assert raw.status.status == raw.status.STATUS_NO_FIX
+    assert (list(raw.position_covariance), raw.position_covariance_type) == ([-1.0] + [0.0] * 8,
+                                                                             raw.COVARIANCE_TYPE_UNKNOWN)
 
 
 def test_odom_velocity_body_and_tf_from_local_position():
@@ -767,6 +809,9 @@ def test_odom_velocity_body_and_tf_from_local_position():
     rig.fcu.send(BUILD.local_position_ned_encode(0, 1.0, 2.0, -3.0, 0.0, 2.0, 0.0))
     odom = rig.published('~local_position/odom')[-1]
     assert (odom.header.frame_id, odom.child_frame_id) == ('map', 'base_link')
+    # mavros 1.21 stamps both velocities with the child frame, the local one's vector in map axes all the same
+    assert rig.published('~local_position/velocity_local')[-1].header.frame_id == 'base_link'
+    assert rig.published('~local_position/velocity_body')[-1].header.frame_id == 'base_link'
     p = odom.pose.pose.position
     assert (p.x, p.y, p.z) == (2.0, 1.0, 3.0)
     lin = odom.twist.twist.linear
@@ -787,7 +832,7 @@ def test_battery_from_sys_status_until_battery_status_arrives():
     rig.fcu.send(BUILD.battery_status_encode(0, 1, 1, 2500, cells, 500, 0, 0, 90))
     b = rig.published('~battery')[-1]
     assert b.voltage == pytest.approx(16.2) and list(b.cell_voltage) == pytest.approx([4.05] * 4)
-    assert (b.current, b.percentage, b.temperature) == pytest.approx((-5.0, 0.9, 25.0))
+    assert (b.current, b.percentage, b.temperature) == pytest.approx((-5.0, 0.9, 0.0))  # mavros fills none
     count = len(rig.published('~battery'))
     rig.fcu.send(BUILD.sys_status_encode(0, 0, 0, 137, 16200, -100, 100, 0, 0, 0, 0, 0, 0))
     assert len(rig.published('~battery')) == count, 'BATTERY_STATUS wins over SYS_STATUS'

@@ -2,8 +2,8 @@
 
 From BATTERY_STATUS of battery 0 when the FCU sends it (PX4 does, at 0.5 Hz): voltage the sum
 of the cells, each cell in cell_voltage, current (A, positive charging, so PX4's draw is
-negative), percentage 0..1, temperature. Until then, from SYS_STATUS's battery fields (5 Hz),
-as mavros does. Unknown values are NaN.
+negative), percentage 0..1; temperature 0, which mavros 1.21 leaves as it is (BATTERY_STATUS's is
+not read). Until then, from SYS_STATUS's battery fields (5 Hz), as mavros does. Unknown values are NaN.
 """
 
 import math
@@ -13,7 +13,6 @@ from sensor_msgs.msg import BatteryState
 from offboard_py.dialect import mavlink
 
 UINT16_UNKNOWN = 0xFFFF
-INT16_UNKNOWN = 0x7FFF
 TECHNOLOGY = {mavlink.MAV_BATTERY_TYPE_LIPO: BatteryState.POWER_SUPPLY_TECHNOLOGY_LIPO,
               mavlink.MAV_BATTERY_TYPE_LIFE: BatteryState.POWER_SUPPLY_TECHNOLOGY_LIFE,
               mavlink.MAV_BATTERY_TYPE_LION: BatteryState.POWER_SUPPLY_TECHNOLOGY_LION,
@@ -27,7 +26,7 @@ def _battery(stamp, voltage, current_ca, remaining_pct):
     msg.current = -current_ca / 100.0 if current_ca != -1 else math.nan
     msg.charge = msg.capacity = msg.design_capacity = math.nan
     msg.percentage = remaining_pct / 100.0 if remaining_pct != -1 else math.nan
-    msg.temperature = math.nan
+    msg.temperature = 0.0  # mavros 1.21 fills in no temperature
     msg.power_supply_status = BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
     msg.power_supply_health = BatteryState.POWER_SUPPLY_HEALTH_UNKNOWN
     msg.power_supply_technology = BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN
@@ -68,7 +67,6 @@ class Battery:
         cells = [v / 1000.0 for v in bs.voltages if v != UINT16_UNKNOWN]
         msg = _battery(self.bridge.now(), sum(cells) if cells else math.nan, bs.current_battery, bs.battery_remaining)
         msg.cell_voltage = cells
-        msg.temperature = bs.temperature / 100.0 if bs.temperature != INT16_UNKNOWN else math.nan
         msg.power_supply_technology = TECHNOLOGY.get(bs.type, BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN)
         msg.location = 'id%d' % bs.id
         self.last = (msg.voltage, msg.current, msg.percentage)

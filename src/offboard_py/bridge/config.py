@@ -27,7 +27,8 @@ def read_config(get):
     cfg = {}
     for name, default in (('fcu_url', DEFAULT_FCU_URL), ('gcs_url', ''), ('local_position/frame_id', 'map'),
                           ('global_position/frame_id', 'map'), ('signing/key_file', ''),
-                          ('local_position/tf/frame_id', 'map'), ('local_position/tf/child_frame_id', 'base_link')):
+                          ('local_position/tf/frame_id', 'map'), ('local_position/tf/child_frame_id', 'base_link'),
+                          ('global_position/child_frame_id', 'base_link')):
         value = get(name, default)
         if not isinstance(value, str):
             raise ConfigError('parameter ~%s: expected a string, got %r' % (name, value))
@@ -41,7 +42,9 @@ def read_config(get):
             raise ConfigError('parameter ~%s: expected a whole number, got %r' % (name, value))
         cfg[name] = int(_number(name, value, low, high))
     for name, default, low, high in (('conn/timeout', 10.0, 0.1, 3600.0), ('conn/heartbeat_rate', 1.0, 0.0, 100.0),
-                                     ('cmd/command_ack_timeout', 5.0, 0.1, 600.0)):
+                                     ('cmd/command_ack_timeout', 5.0, 0.1, 600.0),
+                                     ('global_position/gps_uere', 1.0, 0.0, 1000.0),
+                                     ('global_position/rot_covariance', 99999.0, 0.0, 1e12)):
         cfg[name] = float(_number(name, get(name, default), low, high))
     read_time_config(get, cfg)
     read_imu_config(get, cfg)
@@ -52,7 +55,7 @@ def read_config(get):
             raise ConfigError('parameter ~%s: %s' % (name, err))
     if cfg['fcu'] is None:
         raise ConfigError('parameter ~fcu_url: empty')
-    for name, default in (('local_position/tf/send', False),):
+    for name, default in (('local_position/tf/send', False), ('global_position/use_relative_alt', True)):
         value = get(name, default)
         if not isinstance(value, bool):
             raise ConfigError('parameter ~%s: expected true or false, got %r' % (name, value))

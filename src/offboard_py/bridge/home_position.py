@@ -38,13 +38,13 @@ class HomePosition:
     def _on_home(self, home):
         self.received = True
         msg = HomePositionMsg()
-        msg.header.stamp, msg.header.frame_id = self.bridge.now(), 'map'
+        msg.header.stamp = self.bridge.now()  # no frame_id, as mavros 1.21 leaves it
         msg.geo.latitude, msg.geo.longitude, msg.geo.altitude = home.latitude * 1e-7, home.longitude * 1e-7, \
             home.altitude * 1e-3
         p = msg.position
         p.x, p.y, p.z = frames.ned_to_enu(home.x, home.y, home.z)
         q = msg.orientation
-        q.x, q.y, q.z, q.w = frames.orientation_ned_to_enu(frames.wxyz_to_xyzw(*home.q))
+        q.x, q.y, q.z, q.w = frames.world_orientation_ned_to_enu(frames.wxyz_to_xyzw(*home.q))
         a = msg.approach
         a.x, a.y, a.z = frames.ned_to_enu(home.approach_x, home.approach_y, home.approach_z)
         self.pub.publish(msg)

@@ -53,7 +53,8 @@ class LocalPosition:
             self.pose_pub.publish(pose)
         if self.velocity_pub.get_num_connections():
             twist = TwistStamped()
-            twist.header.stamp, twist.header.frame_id = stamp, self.frame_id
+            # the child frame, though the vector is in the map's axes: as mavros 1.21 stamps it
+            twist.header.stamp, twist.header.frame_id = stamp, self.tf_child_frame_id
             lin, ang = twist.twist.linear, twist.twist.angular
             lin.x, lin.y, lin.z = velocity
             ang.x, ang.y, ang.z = attitude.angular_velocity_enu
@@ -63,14 +64,14 @@ class LocalPosition:
             body = frames.rotate(_inverse(attitude.orientation_enu), velocity)
         if self.velocity_body_pub.get_num_connections():
             twist = TwistStamped()
-            twist.header.stamp, twist.header.frame_id = stamp, 'base_link'
+            twist.header.stamp, twist.header.frame_id = stamp, self.tf_child_frame_id
             lin, ang = twist.twist.linear, twist.twist.angular
             lin.x, lin.y, lin.z = body
             ang.x, ang.y, ang.z = attitude.angular_velocity_flu
             self.velocity_body_pub.publish(twist)
         if self.odom_pub.get_num_connections():
             odom = Odometry()
-            odom.header.stamp, odom.header.frame_id, odom.child_frame_id = stamp, self.frame_id, 'base_link'
+            odom.header.stamp, odom.header.frame_id, odom.child_frame_id = stamp, self.frame_id, self.tf_child_frame_id
             p, q = odom.pose.pose.position, odom.pose.pose.orientation
             p.x, p.y, p.z = position
             q.x, q.y, q.z, q.w = attitude.orientation_enu
