@@ -46,12 +46,15 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~altitude', '~imu/data', '~imu/data_raw', '~imu/mag', '~imu/static_pressure', '~imu/temperature_imu',
         '~imu/diff_pressure', '~imu/temperature_baro',
         '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
+        '~geofence/waypoints', '~rallypoint/waypoints',
         '~setpoint_raw/target_local', '~setpoint_raw/target_attitude', '~statustext/recv', '~vfr_hud', '~rc/in',
         '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics', '/tf', '/tf_static'}
-    assert {name for name, pub in topics.items() if pub.latch} == {'~state', '~home_position/home',
-                                                                   '~mission/waypoints', '/tf_static'}
+    assert {name for name, pub in topics.items() if pub.latch} == {
+        '~state', '~home_position/home', '~mission/waypoints', '~geofence/waypoints', '~rallypoint/waypoints',
+        '/tf_static'}
     assert {name: pub.queue_size for name, pub in topics.items() if pub.queue_size != 10} == {
-        '~home_position/home': 2, '~mission/waypoints': 2, 'mavlink/from': 100, '/tf': 100, '/tf_static': 1}
+        '~home_position/home': 2, '~mission/waypoints': 2, '~geofence/waypoints': 2, '~rallypoint/waypoints': 2,
+        'mavlink/from': 100, '/tf': 100, '/tf_static': 1}
 
 
 def test_tf_static_carries_mavros_ned_and_frd_frames():
@@ -419,6 +422,10 @@ def test_mission_pull_after_connection_retries_until_the_fcu_answers(monkeypatch
     assert len(rig.plugin.waypoints) == 2
     retries = [w for w in warnings if 'mission pull after connection failed' in w]
     assert len(retries) == 2 and 'trying again' in retries[0], warnings
+    # the empty geofence and rally lists, latched, as mavros's geofence and rallypoint plugins publish them
+    for topic in ('~geofence/waypoints', '~rallypoint/waypoints'):
+        [listed] = rig.published(topic)
+        assert (listed.current_seq, listed.waypoints) == (0, []), topic
 
 
 def test_a_pull_retry_ends_with_an_error_when_the_link_is_gone(monkeypatch):

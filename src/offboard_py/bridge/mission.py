@@ -7,8 +7,9 @@ and when MISSION_CURRENT moves. 15 s after the connection the geofence, the rall
 the mission are pulled, in that order, as mavros 1.21's geofence, rallypoint and waypoint plugins
 do (px4_pluginlists.yaml loads all three; each pulls its list BOOTUP_TIME after the connection:
 reference/px4-sitl-measured.md, "Recorded conversations": MISSION_REQUEST_LIST for mission_type 1, 2
-and 0 at 15.0 s after the connection, within 2 ms). The geofence and rally items are kept but not
-published (mavros's ~geofence and ~rallypoint topics are not offered).
+and 0 at 15.0 s after the connection, within 2 ms). The geofence and rally items pulled are published
+on ~geofence/waypoints and ~rallypoint/waypoints (latched WaypointLists, as mavros's geofence and
+rallypoint plugins publish them after a pull; their pull/push/clear services are not offered).
 A transfer runs in the service thread; the receive thread hands it the messages.
 """
 
@@ -68,6 +69,9 @@ class Mission:
         self.inbox = None  # a Queue while a transfer runs
         self.inbox_type = mavlink.MAV_MISSION_TYPE_MISSION  # the mission_type of that transfer
         self.waypoints_pub = bridge.publisher('~mission/waypoints', WaypointList, queue_size=2, latch=True)
+        self.other_pubs = {mission_type: bridge.publisher('~%s/waypoints' % topic, WaypointList, queue_size=2, latch=True)
+                           for mission_type, topic in ((mavlink.MAV_MISSION_TYPE_FENCE, 'geofence'),
+                                                       (mavlink.MAV_MISSION_TYPE_RALLY, 'rallypoint'))}
         self.reached_pub = bridge.publisher('~mission/reached', WaypointReached)
         self.services = [bridge.service('~mission/push', WaypointPush, self._push),
                          bridge.service('~mission/pull', WaypointPull, self._pull),
@@ -174,6 +178,9 @@ class Mission:
         b.send(b.mav.mission_ack_encode(*target, mavlink.MAV_MISSION_ACCEPTED, mission_type))
         if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
             self.other_items[mission_type] = items
+            listed = WaypointList()  # current_seq 0: the geofence and rally plugins never move theirs
+            listed.waypoints = [waypoint_from_item(item) for item in items]
+            self.other_pubs[mission_type].publish(listed)
             return count
         self.waypoints = [waypoint_from_item(item) for item in items]
         self.current_seq = next((i for i, item in enumerate(items) if item.current), self.current_seq)
