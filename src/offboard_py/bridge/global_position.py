@@ -123,18 +123,20 @@ class GlobalPosition:
         b = self.bridge
         stamp = b.fcu_stamp_ms(gp.time_boot_ms)
         fix_type = self.gps.fix_type if self.gps is not None else None
+        # asked once: a subscriber that comes between two asks must not find half the work done
+        want_global, want_local = self.pub.get_num_connections(), self.local_pub.get_num_connections()
         fix = None
-        if self.pub.get_num_connections() or self.local_pub.get_num_connections():  # the topics are not latched
+        if want_global or want_local:  # the topics are not latched: nobody listens, no work
             fix = NavSatFix()
             fix.header.stamp, fix.header.frame_id = stamp, self.child_frame_id
             _fill_fix(fix, gp.lat, gp.lon, gp.alt, self.gps, self.uere)
-        if self.pub.get_num_connections():
+        if want_global:
             self.pub.publish(fix)
         lat, lon, alt = gp.lat * 1e-7, gp.lon * 1e-7, gp.alt * 1e-3
         if self.origin is None and _fix_status(fix_type) == NavSatStatus.STATUS_FIX:
             self.origin = (lat, lon, frames.geodetic_to_ecef(lat, lon, alt))
             b.needs_changed()  # GLOBAL_POSITION_INT is now read only for its subscribers
-        if self.origin is not None and self.local_pub.get_num_connections():
+        if self.origin is not None and want_local:
             here = frames.geodetic_to_ecef(lat, lon, alt)
             odom = Odometry()
             odom.header.stamp, odom.header.frame_id, odom.child_frame_id = stamp, self.frame_id, self.child_frame_id
