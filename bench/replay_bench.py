@@ -57,30 +57,13 @@ def side_command(side, mavros_setup=None):
     return stack.in_setup(['roslaunch', 'mavros', 'px4.launch', 'fcu_url:=' + FCU_URL], mavros_setup)
 
 
-def descendants(pid):
-    """The pids under pid, children first (from /proc/PID/task/TID/children)."""
-    found, todo = [], [pid]
-    while todo:
-        parent = todo.pop(0)
-        try:
-            tids = os.listdir('/proc/%d/task' % parent)
-        except OSError:
-            continue
-        for tid in tids:
-            try:
-                kids = [int(k) for k in open('/proc/%d/task/%s/children' % (parent, tid)).read().split()]
-            except OSError:
-                continue
-            found.extend(kids)
-            todo.extend(kids)
-    return found
-
-
 def process_named(pid, name):
-    """pid itself, or the first process under it, whose command name (/proc/PID/comm) is name; None if none."""
-    for candidate in [pid] + descendants(pid):
+    """pid itself, or a process under it (benchmark.descends_from), whose command name (/proc/PID/comm, 15
+    characters at most) is name; None if none."""
+    for candidate in [pid] + [int(p) for p in filter(str.isdigit, os.listdir('/proc'))]:
         try:
-            if open('/proc/%d/comm' % candidate).read().strip() == name[:15]:
+            if open('/proc/%d/comm' % candidate).read().strip() == name[:15] and (
+                    candidate == pid or benchmark.descends_from(candidate, pid)):
                 return candidate
         except OSError:
             continue

@@ -1,6 +1,7 @@
 """The simulated PX4's telemetry, offline: streams and rates, SYS_STATUS and HEARTBEAT words,
 the battery, and messages built from a flight Status (sim.telemetry, sim.flight)."""
 
+import functools
 import json
 import math
 import os
@@ -451,13 +452,14 @@ def test_link_node_status_is_the_links_own_as_px4_fills_it():
     assert b.link_node_status(counters, 13.0).tx_rate == 12000  # the next whole second
 
 
+@functools.lru_cache(maxsize=1)
 def _recorded_hover():
     """PX4 SITL (SIH)'s onboard stream in the recorded hover the replay benchmark sends: (window s, messages)."""
     import lzma
     with lzma.open(os.path.join(REPO, 'bench', 'data', 'px4-hover-replay.json.xz'), 'rt') as f:
         data = json.load(f)
     parser = M.MAVLink(None)
-    return data['window_us'] / 1e6, [parser.parse_buffer(bytes.fromhex(frame))[0] for _, frame in data['stream']]
+    return data['window_us'] / 1e6, tuple(parser.parse_buffer(bytes.fromhex(frame))[0] for _, frame in data['stream'])
 
 
 def test_highres_imu_marks_fresh_fields_at_px4_sihs_sensor_rates_and_holds_the_rest():

@@ -28,7 +28,7 @@ def read_config(get):
     for name, default in (('fcu_url', DEFAULT_FCU_URL), ('gcs_url', ''), ('local_position/frame_id', 'map'),
                           ('global_position/frame_id', 'map'), ('signing/key_file', ''),
                           ('local_position/tf/frame_id', 'map'), ('local_position/tf/child_frame_id', 'base_link'),
-                          ('global_position/child_frame_id', 'base_link')):
+                          ('global_position/child_frame_id', 'base_link'), ('imu/frame_id', 'base_link')):
         value = get(name, default)
         if not isinstance(value, str):
             raise ConfigError('parameter ~%s: expected a string, got %r' % (name, value))
@@ -115,13 +115,9 @@ IMU_STDEV_PARAMS = (('imu/linear_acceleration_stdev', 0.0003), ('imu/angular_vel
 
 
 def read_imu_config(get, cfg):
-    """The imu plugin's frame_id and standard deviations. A value that is not a number is mavros's default,
-    with a warning naming it, as mavros reads it (px4_config.yaml's angular_velocity_stdev is the string
+    """The imu plugin's standard deviations. A value that is not a number is mavros's default, with a
+    warning naming it, as mavros reads it (px4_config.yaml's angular_velocity_stdev is the string
     "0.0003490659 // 0.02 degrees", whose default is the same number); a negative or unfinite one is an error."""
-    frame_id = get('imu/frame_id', 'base_link')
-    if not isinstance(frame_id, str):
-        raise ConfigError('parameter ~imu/frame_id: expected a string, got %r' % (frame_id,))
-    cfg['imu/frame_id'] = frame_id
     for name, default in IMU_STDEV_PARAMS:
         value = get(name, default)
         if isinstance(value, bool) or not isinstance(value, (int, float)):

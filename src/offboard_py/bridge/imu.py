@@ -21,14 +21,12 @@
 from sensor_msgs.msg import FluidPressure, Imu as ImuMsg, MagneticField, Temperature
 
 from offboard_py import frames, wire
-from offboard_py.bridge.config import IMU_STDEV_PARAMS
 from offboard_py.dialect import (HIGHRES_IMU_UPDATED_ABS_PRESSURE as ABS_PRESSURE,
                                  HIGHRES_IMU_UPDATED_ACCEL_GYRO as ACCEL_GYRO,
                                  HIGHRES_IMU_UPDATED_DIFF_PRESSURE as DIFF_PRESSURE, HIGHRES_IMU_UPDATED_MAG as MAG,
                                  HIGHRES_IMU_UPDATED_TEMPERATURE as TEMPERATURE)
 
 GAUSS_TO_TESLA = 1e-4
-STDEV_DEFAULTS = dict(IMU_STDEV_PARAMS)
 
 def covariance(stdev):
     """mavros's 3x3 covariance of a standard deviation, row-major: stdev^2 on the diagonal, or element 0
@@ -42,13 +40,12 @@ def covariance(stdev):
 class Imu:
     def __init__(self, bridge):
         self.bridge = bridge
-        cfg = bridge.cfg
-        self.frame_id = cfg.get('imu/frame_id', 'base_link')
-        stdev = {name: cfg.get(name, default) for name, default in STDEV_DEFAULTS.items()}
-        self.linear_cov = covariance(stdev['imu/linear_acceleration_stdev'])
-        self.angular_cov = covariance(stdev['imu/angular_velocity_stdev'])
-        self.orientation_cov = covariance(stdev['imu/orientation_stdev'])
-        self.magnetic_cov = covariance(stdev['imu/magnetic_stdev'])
+        cfg = bridge.cfg  # read and checked by config.read_config
+        self.frame_id = cfg['imu/frame_id']
+        self.linear_cov = covariance(cfg['imu/linear_acceleration_stdev'])
+        self.angular_cov = covariance(cfg['imu/angular_velocity_stdev'])
+        self.orientation_cov = covariance(cfg['imu/orientation_stdev'])
+        self.magnetic_cov = covariance(cfg['imu/magnetic_stdev'])
         self.unknown_cov = covariance(0.0)
         self._accel_flu = None  # none yet: imu/data's linear_acceleration_covariance[0] is -1
         self._imu_frame = None  # the latest HIGHRES_IMU, decoded when its acceleration is read
