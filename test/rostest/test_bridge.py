@@ -143,7 +143,8 @@ class BridgeTest(OffboardTestCase):
 
     def setpoints_at_fcu_after(self, before, name='SET_POSITION_TARGET_LOCAL_NED'):
         """The messages `name` the FCU got after the first `before`, once one came."""
-        self.wait_until(lambda: len(self.fcu.of_type(name)) > before, 5.0, 'a %s at the FCU' % name)
+        # the silent FCU is this process, on wall time: at 5x, 5 s of ROS time is 1 s of it
+        self.wait_until(lambda: len(self.fcu.of_type(name)) > before, 5.0, 'a %s at the FCU' % name, min_wall_s=5.0)
         time.sleep(0.3)  # anything sent after it would have arrived by now
         return self.fcu.of_type(name)[before:]
 

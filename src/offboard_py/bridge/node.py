@@ -12,6 +12,7 @@ import time
 import rospy
 
 from offboard_py.bridge.config import ConfigError, read_config
+from offboard_py.bridge import tcpros_out
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import check_pymavlink_version
 from offboard_py.master import await_master_from_argv
@@ -42,11 +43,16 @@ class _SubscribersMoved(rospy.SubscribeListener):
 class RospyEndpoints:
     """The plugins' ROS side in the running node: names as given (`~...` is private to the node)."""
 
-    @staticmethod
-    def publisher(name, data_class, queue_size, latch, on_subscribers):
-        """on_subscribers() is called when the topic gains or loses a subscriber."""
-        return rospy.Publisher(name, data_class, queue_size=queue_size, latch=latch,
-                               subscriber_listener=_SubscribersMoved(on_subscribers))
+    def __init__(self):
+        self.flusher = tcpros_out.Flusher()
+
+    def publisher(self, name, data_class, queue_size, latch, on_subscribers):
+        """on_subscribers() is called when the topic gains or loses a subscriber. A subscriber's
+        messages are written in the publishing thread, never blocking it (tcpros_out)."""
+        publisher = rospy.Publisher(name, data_class, queue_size=queue_size, latch=latch,
+                                    subscriber_listener=_SubscribersMoved(on_subscribers))
+        tcpros_out.install(publisher, queue_size, self.flusher)
+        return publisher
 
     @staticmethod
     def subscriber(name, data_class, callback):

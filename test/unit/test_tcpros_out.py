@@ -1,0 +1,141 @@
+"""The bridge's subscriber connections (bridge/tcpros_out.py) on real rospy publishers and real TCP
+sockets on loopback: rospy's own publish path, a subscriber at the other end of a socket that
+reads, reads late or is gone. No ROS master is needed: a connection is handed to the publisher as
+rospy's TCPROS server hands it one.
+"""
+
+import socket
+import struct
+import threading
+import time
+
+import pytest
+import rospy
+from rospy.impl.tcpros_base import TCPROSTransport
+from rospy.impl.tcpros_pubsub import TCPROSPub
+from std_msgs.msg import String
+
+from offboard_py.bridge import tcpros_out
+
+BOUND_S = 5.0
+
+
+def _connect(publisher, topic):
+    """A TCP connection on loopback, its publisher end given to `publisher` as rospy's server gives
+    it; returns the subscriber's end and the publisher's transport."""
+    with socket.socket() as server:
+        server.bind(('127.0.0.1', 0))
+        server.listen(1)
+        reader = socket.create_connection(server.getsockname(), timeout=BOUND_S)
+        sock, _ = server.accept()
+    transport = TCPROSTransport(TCPROSPub(topic, String), topic)
+    transport.set_socket(sock, '/reader')
+    publisher.impl.add_connection(transport)
+    return reader, transport
+
+
+class _Subscriber:
+    """The subscriber's end: TCPROS frames (4-byte length, then the message) read as Strings."""
+
+    def __init__(self, sock):
+        self.sock = sock
+        self.buffer = b''
+
+    def read(self, count):
+        messages = []
+        while True:
+            while len(messages) < count and len(self.buffer) >= 4:
+                size = struct.unpack('<I', self.buffer[:4])[0]
+                if len(self.buffer) < 4 + size:
+                    break
+                messages.append(String().deserialize(self.buffer[4:4 + size]).data)
+                self.buffer = self.buffer[4 + size:]
+            if len(messages) == count:
+                return messages
+            chunk = self.sock.recv(1 << 20)  # the socket's timeout bounds the wait
+            assert chunk, 'the publisher closed the connection after %d of %d messages' % (len(messages), count)
+            self.buffer += chunk
+
+
+def _publish(publisher, text):
+    """What rospy.Publisher.publish does once the node is initialised (this test runs without one)."""
+    publisher.impl.acquire()
+    try:
+        publisher.impl.publish(String(text))
+    finally:
+        publisher.impl.release()
+
+
+@pytest.fixture
+def publisher(request):
+    topic = '/tcpros_out_%s' % request.node.name
+    latch = 'latch' in request.node.name
+    made = rospy.Publisher(topic, String, queue_size=3, latch=latch)
+    assert tcpros_out.install(made, 3, tcpros_out.Flusher(poll_ms=10)), 'rospy\'s publisher has no hook here'
+    yield made
+    made.unregister()
+
+
+def test_messages_arrive_whole_and_in_order_through_the_hooked_connection(publisher):
+    reader, transport = _connect(publisher, publisher.resolved_name)
+    with reader:
+        assert isinstance(publisher.impl.connections[0], tcpros_out.UnblockedConnection)
+        for i in range(20):
+            _publish(publisher, 'message %d' % i)
+        assert _Subscriber(reader).read(20) == ['message %d' % i for i in range(20)]
+        assert transport.stat_num_msg == 20
+
+
+def test_latched_message_reaches_a_late_subscriber_latch(publisher):
+    _publish(publisher, 'latched')
+    reader, _transport = _connect(publisher, publisher.resolved_name)
+    with reader:
+        assert _Subscriber(reader).read(1) == ['latched']
+
+
+def test_a_subscriber_that_stops_reading_never_blocks_the_publisher(publisher):
+    """rospy's queueless publish would block in sendall once the socket's buffers fill; here each
+    publish returns at once and the subscriber gets, when it reads again, whole messages in order,
+    the newest ones kept (queue_size 3, the oldest dropped first), none cut."""
+    reader, _transport = _connect(publisher, publisher.resolved_name)
+    with reader:
+        big = 'x' * 1000000
+        count = 40  # 40 MB: far more than loopback's socket buffers hold (some 10 MB at most)
+        done = threading.Event()
+        took = []
+
+        def publish_all():
+            for i in range(count):
+                start = time.monotonic()
+                _publish(publisher, '%d %s' % (i, big))
+                took.append(time.monotonic() - start)
+            done.set()
+        threading.Thread(target=publish_all, daemon=True).start()
+        assert done.wait(BOUND_S), 'publish blocked on a subscriber that does not read (%d of %d out)' % (
+            len(took), count)
+        connection = publisher.impl.connections[0]
+        assert connection.dropped > 0, 'nothing was dropped although the subscriber read nothing'
+        subscriber = _Subscriber(reader)
+        received = []
+        deadline = time.monotonic() + BOUND_S
+        while not received or not received[-1].startswith('%d ' % (count - 1)):
+            assert time.monotonic() < deadline, 'the newest message never arrived; got %d messages, last %r' % (
+                len(received), received[-1][:12] if received else None)
+            received += subscriber.read(1)
+        numbers = [int(text.split(' ', 1)[0]) for text in received]
+        assert numbers == sorted(numbers), 'messages out of order: %s' % numbers
+        assert all(text.endswith(big) for text in received), 'a message arrived cut'
+        assert len(received) + connection.dropped == count
+        assert max(took) < 1.0, 'one publish took %.3f s' % max(took)
+
+
+def test_a_subscriber_that_is_gone_is_dropped_from_the_topic(publisher):
+    reader, transport = _connect(publisher, publisher.resolved_name)
+    reader.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack('ii', 1, 0))  # close with a reset
+    reader.close()
+    deadline = time.monotonic() + BOUND_S
+    while publisher.impl.connections:
+        assert time.monotonic() < deadline, 'the dead connection is still on the topic'
+        _publish(publisher, 'to nobody')  # must not raise
+        time.sleep(0.01)
+    assert transport.done
