@@ -20,14 +20,21 @@ from offboard_py.bridge import tcpros_out
 BOUND_S = 5.0
 
 
-def _connect(publisher, topic):
+def _connect(publisher, topic, buffer_bytes=None):
     """A TCP connection on loopback, its publisher end given to `publisher` as rospy's server gives
-    it; returns the subscriber's end and the publisher's transport."""
+    it; returns the subscriber's end and the publisher's transport. `buffer_bytes` caps both ends'
+    kernel buffers (else the system's autotuning sizes them)."""
     with socket.socket() as server:
         server.bind(('127.0.0.1', 0))
         server.listen(1)
-        reader = socket.create_connection(server.getsockname(), timeout=BOUND_S)
+        reader = socket.socket()
+        reader.settimeout(BOUND_S)
+        if buffer_bytes:
+            reader.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, buffer_bytes)  # before the window is offered
+        reader.connect(server.getsockname())
         sock, _ = server.accept()
+    if buffer_bytes:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, buffer_bytes)
     transport = TCPROSTransport(TCPROSPub(topic, String), topic)
     transport.set_socket(sock, '/reader')
     publisher.impl.add_connection(transport)
@@ -97,10 +104,10 @@ def test_a_subscriber_that_stops_reading_never_blocks_the_publisher(publisher):
     """rospy's queueless publish would block in sendall once the socket's buffers fill; here each
     publish returns at once and the subscriber gets, when it reads again, whole messages in order,
     the newest ones kept (queue_size 3, the oldest dropped first), none cut."""
-    reader, _transport = _connect(publisher, publisher.resolved_name)
+    reader, _transport = _connect(publisher, publisher.resolved_name, buffer_bytes=1 << 16)
     with reader:
         big = 'x' * 1000000
-        count = 40  # 40 MB: far more than loopback's socket buffers hold (some 10 MB at most)
+        count = 20  # 20 MB: far more than the two 64 KB socket buffers hold
         done = threading.Event()
         took = []
 

@@ -17,7 +17,7 @@ cut: a partly sent one is finished before the next.
 
 rospy has no public hook for this: `install(publisher, queue_size)` replaces the wrapper at the one
 place rospy chooses it (`_PublisherImpl.add_connection` wraps when its queue_size is set), and
-leaves rospy's own queue in place when that place is not as rospy 1.15-1.17 has it.
+leaves rospy's own queue in place when that place is not as rospy 1.15.15 (Debian 12) has it.
 """
 
 import collections
