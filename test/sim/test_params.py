@@ -25,8 +25,8 @@ HASH_CHECK = ('_HASH_CHECK', mavlink.MAV_PARAM_TYPE_UINT32, 65535, 0xBD8B05F8)  
 READ_BY_INDEX = list(range(19)) + [444, 887]  # the indices PX4 was asked for one by one
 LIST_BOUND_S = 10.0        # PX4: under 1 s; ours is paced through its 100 Hz loop
 # PX4 SITL sent its 889 PARAM_VALUE in 0.80 s (reference/conversations: the pull from 11.0 to 11.8 s),
-# some 11 a 10 ms step of its loop, between its streams. So ATTITUDE (about one a step, 98.5 Hz in
-# PX4's census) comes between any three steps' worth. Counted in the order the datagrams came, which
+# some 11 a 10 ms step of its loop, between its streams: at most 20 between two ATTITUDEs (about one a
+# step, 98.5 Hz in PX4's census; takeoff-mavros-px4.compact.jsonl.xz). Bound: three steps' worth. Counted in the order the datagrams came, which
 # the machine's load does not change, where a gap in wall time would (a 0.14 s stall of the whole
 # process under CI's load once failed a 0.1 s bound at 2x).
 PX4_PARAM_VALUES_PER_STEP = 11
