@@ -11,8 +11,8 @@ import time
 
 import rospy
 
-from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge import tcpros_out
+from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import check_pymavlink_version
 from offboard_py.master import await_master_from_argv
