@@ -68,7 +68,12 @@ class Flusher:
                     poller.register(fd, select.POLLOUT)
             ready = poller.poll(self.poll_ms) if by_fd else ()
             for fd, _events in ready:
-                by_fd[fd].flush()
+                try:
+                    by_fd[fd].flush()
+                except Exception:  # this thread serves every backed-up subscriber: it must outlive one
+                    _log.exception('subscriber %s: sending what waited failed; closing the connection',
+                                   by_fd[fd].endpoint_id)
+                    by_fd[fd].close()
             for connection in connections:
                 connection.forget_if_idle(self._forget)
 
