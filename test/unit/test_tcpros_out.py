@@ -146,3 +146,21 @@ def test_a_subscriber_that_is_gone_is_dropped_from_the_topic(publisher):
         _publish(publisher, 'to nobody')  # must not raise
         time.sleep(0.01)
     assert transport.done
+
+
+def test_a_socket_with_a_timeout_keeps_rospys_queue(publisher):
+    """Python waits for room before a send on a socket with a timeout, MSG_DONTWAIT or not: such a
+    connection is left to rospy's own writer thread, which may wait."""
+    with socket.socket() as server:
+        server.bind(('127.0.0.1', 0))
+        server.listen(1)
+        reader = socket.create_connection(server.getsockname(), timeout=BOUND_S)
+        sock, _ = server.accept()
+    sock.settimeout(1.0)
+    transport = TCPROSTransport(TCPROSPub(publisher.resolved_name, String), publisher.resolved_name)
+    transport.set_socket(sock, '/reader')
+    publisher.impl.add_connection(transport)
+    with reader:
+        assert not isinstance(publisher.impl.connections[0], tcpros_out.UnblockedConnection)
+        _publish(publisher, 'through rospy')
+        assert _Subscriber(reader).read(1) == ['through rospy']

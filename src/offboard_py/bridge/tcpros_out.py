@@ -183,8 +183,11 @@ def install(publisher, queue_size, flusher):
         return False
 
     def add_unblocked_connection(connection):
-        if getattr(connection, 'socket', None) is None:
-            return add_connection(impl, QueuedConnection(connection, queue_size))  # as rospy would
+        sock = getattr(connection, 'socket', None)
+        # not a socket, or one with a timeout (Python then waits for room before it sends, whatever the
+        # flags): as rospy would
+        if sock is None or sock.gettimeout() is not None:
+            return add_connection(impl, QueuedConnection(connection, queue_size))
         return add_connection(impl, UnblockedConnection(connection, queue_size, flusher))
 
     impl.queue_size = None  # rospy wraps no more: the connection comes wrapped
