@@ -38,13 +38,14 @@ def _fix_status(fix_type):
 def _raw_covariance(gps, uere):
     """NavSatFix's position covariance and its type from a GPS_RAW_INT, as mavros 1.21 makes them: the
     receiver's accuracies (h_acc, v_acc, mm) squared when it gives both (MAVLink 2's extension fields),
-    else EPH and EPV (cm) times the range error (~global_position/gps_uere) squared, else unknown."""
+    else EPH and EPV (cm) times the range error (~global_position/gps_uere) squared, else (and before
+    the first GPS_RAW_INT, gps None) unknown."""
     cov = [0.0] * 9
-    if gps.h_acc > 0 and gps.v_acc > 0:
+    if gps is not None and gps.h_acc > 0 and gps.v_acc > 0:
         cov[0] = cov[4] = (gps.h_acc * 1e-3) ** 2
         cov[8] = (gps.v_acc * 1e-3) ** 2
         return cov, NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
-    if gps.eph != UINT16_UNKNOWN and gps.epv != UINT16_UNKNOWN:
+    if gps is not None and gps.eph != UINT16_UNKNOWN and gps.epv != UINT16_UNKNOWN:
         cov[0] = cov[4] = (gps.eph * 1e-2 * uere) ** 2
         cov[8] = (gps.epv * 1e-2 * uere) ** 2
         return cov, NavSatFix.COVARIANCE_TYPE_APPROXIMATED
@@ -57,11 +58,7 @@ def _fill_fix(fix, lat_e7, lon_e7, alt_mm, gps, uere):
     covariance unknown, as mavros before its first GPS_RAW_INT)."""
     fix.status.status, fix.status.service = _fix_status(gps.fix_type if gps else None), NavSatStatus.SERVICE_GPS
     fix.latitude, fix.longitude, fix.altitude = lat_e7 * 1e-7, lon_e7 * 1e-7, alt_mm * 1e-3
-    if gps is None:
-        fix.position_covariance = [-1.0] + [0.0] * 8
-        fix.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
-    else:
-        fix.position_covariance, fix.position_covariance_type = _raw_covariance(gps, uere)
+    fix.position_covariance, fix.position_covariance_type = _raw_covariance(gps, uere)
 
 
 class GlobalPosition:

@@ -28,6 +28,7 @@ from offboard_py.dialect import (HIGHRES_IMU_UPDATED_ABS_PRESSURE as ABS_PRESSUR
 
 GAUSS_TO_TESLA = 1e-4
 
+
 def covariance(stdev):
     """mavros's 3x3 covariance of a standard deviation, row-major: stdev^2 on the diagonal, or element 0
     -1 (unknown) when it is 0."""
