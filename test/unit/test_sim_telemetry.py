@@ -361,6 +361,33 @@ def test_cycles_of_one_wake_up_each_run_at_their_own_time():
         sim.close_links()
 
 
+def test_a_parameter_list_goes_out_between_the_streams_of_each_cycle_of_a_wake_up():
+    """After a stall the loop runs the missed cycles in one wake-up: each cycle's batch of a
+    PARAM_REQUEST_LIST answer must go out between that cycle's streams, as PX4's loop interleaves them
+    (at most 20 PARAM_VALUE between two ATTITUDEs in the recorded pull), not all the cycles' batches
+    ahead of all their streams (a CI run under load saw 55 in a row)."""
+    from offboard_py.sim.autopilot import PARAM_LIST_BATCH, SimulatedPx4
+
+    class StoppedClock:
+        speed = 1.0
+
+        def __call__(self):
+            return 500.0
+
+    sim = SimulatedPx4(local_port=0, remote_port=9, gcs=False, clock=StoppedClock())
+    try:
+        sim._on_param_request_list(sim.mav.param_request_list_encode(sim.system_id, 1))
+        out = {}
+        for cycle in range(5):
+            sim.step(0.01, 7.00 + 0.01 * cycle, out)
+        kinds = [m.get_type() for m in out[sim.link]]
+        assert kinds.count('PARAM_VALUE') == 5 * PARAM_LIST_BATCH
+        runs = ''.join('P' if kind == 'PARAM_VALUE' else 'A' if kind == 'ATTITUDE' else '' for kind in kinds)
+        assert max(len(run) for run in runs.split('A')) <= PARAM_LIST_BATCH, runs
+    finally:
+        sim.close_links()
+
+
 # -- TIME_ESTIMATE_TO_TARGET and LINK_NODE_STATUS ------------------------------------------------
 
 def test_rtl_time_estimate_is_px4s():

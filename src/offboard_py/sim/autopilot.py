@@ -384,11 +384,18 @@ class SimulatedPx4:
         if self._for_me(msg):
             self.param_lists[self.reply_link] = collections.deque(self.params.names + [sim_params.HASH_CHECK_NAME])
 
-    def _send_param_lists(self):
+    def _send_param_lists(self, out=None):
+        """A cycle's batch of each parameter list under way: into out[link] with the cycle's streams
+        (so a wake-up that runs several cycles sends each batch between its cycle's streams, as PX4's
+        loop does), or at once when `out` is None."""
         for link, pending in list(self.param_lists.items()):
             names = [pending.popleft() for _ in range(min(PARAM_LIST_BATCH, len(pending)))]
-            link.send_many([self._hash_check() if name == sim_params.HASH_CHECK_NAME else self._param_value(name)
-                            for name in names])
+            msgs = [self._hash_check() if name == sim_params.HASH_CHECK_NAME else self._param_value(name)
+                    for name in names]
+            if out is None:
+                link.send_many(msgs)
+            else:
+                out.setdefault(link, []).extend(msgs)
             if not pending:
                 del self.param_lists[link]
 
@@ -487,17 +494,17 @@ class SimulatedPx4:
     def step(self, dt, slot_s=None, out=None):
         """One cycle of the loop at `slot_s` (the cycle's time on the loop's schedule, seconds
         since boot; default: now): the flight stack's timers, the streams due then and their
-        values are that time's, also when one wake-up runs several cycles. The streams are
-        appended to out[link] to go out with the rest of the wake-up's cycles, or sent at once
-        when `out` is None. What the flight stack says (modes, texts, mission progress) goes out
-        at once."""
+        values are that time's, also when one wake-up runs several cycles. The streams and the
+        cycle's batch of a parameter list are appended to out[link] to go out with the rest of the
+        wake-up's cycles, or sent at once when `out` is None. What the flight stack says (modes,
+        texts, mission progress) goes out at once."""
         self._send_deferred()
         now = self.t() if slot_s is None else slot_s
         self.flight.step(now, dt)
         self.transfer.tick(now)
         self._say_events()
         if self.param_lists:
-            self._send_param_lists()
+            self._send_param_lists(out)
         status, built = None, {}
         for link, streams in self.streams.items():
             due = streams.due(now)
