@@ -334,10 +334,8 @@ def test_altitude_is_never_nan_and_home_is_set_again_at_arming():
     assert altitude.altitude_local == pytest.approx(2.0, abs=0.15)
 
 
-def test_cycles_of_one_wake_up_each_run_at_their_own_time():
-    """SimulatedPx4.run() runs the cycles of one wake-up back to back (--steps-per-wakeup): each
-    must step the flight stack at its own slot on the schedule, not at the wake-up's time, or the
-    timers and the navigator's trajectory (dt = now - last) move in jumps of a whole wake-up."""
+def stopped_clock_sim():
+    """A SimulatedPx4 whose clock stands still, so that a test runs the cycles of one wake-up itself."""
     from offboard_py.sim.autopilot import SimulatedPx4
 
     class StoppedClock:
@@ -346,7 +344,14 @@ def test_cycles_of_one_wake_up_each_run_at_their_own_time():
         def __call__(self):
             return 500.0
 
-    sim = SimulatedPx4(local_port=0, remote_port=9, gcs=False, clock=StoppedClock())
+    return SimulatedPx4(local_port=0, remote_port=9, gcs=False, clock=StoppedClock())
+
+
+def test_cycles_of_one_wake_up_each_run_at_their_own_time():
+    """SimulatedPx4.run() runs the cycles of one wake-up back to back (--steps-per-wakeup): each
+    must step the flight stack at its own slot on the schedule, not at the wake-up's time, or the
+    timers and the navigator's trajectory (dt = now - last) move in jumps of a whole wake-up."""
+    sim = stopped_clock_sim()
     try:
         stepped = []
         flight_step = sim.flight.step
@@ -366,15 +371,9 @@ def test_a_parameter_list_goes_out_between_the_streams_of_each_cycle_of_a_wake_u
     PARAM_REQUEST_LIST answer must go out between that cycle's streams, as PX4's loop interleaves them
     (at most 20 PARAM_VALUE between two ATTITUDEs in the recorded pull), not all the cycles' batches
     ahead of all their streams (a CI run under load saw 55 in a row)."""
-    from offboard_py.sim.autopilot import PARAM_LIST_BATCH, SimulatedPx4
+    from offboard_py.sim.autopilot import PARAM_LIST_BATCH
 
-    class StoppedClock:
-        speed = 1.0
-
-        def __call__(self):
-            return 500.0
-
-    sim = SimulatedPx4(local_port=0, remote_port=9, gcs=False, clock=StoppedClock())
+    sim = stopped_clock_sim()
     try:
         sim._on_param_request_list(sim.mav.param_request_list_encode(sim.system_id, 1))
         out = {}
