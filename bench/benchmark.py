@@ -2,7 +2,8 @@
 """The benchmark: the full stack (offb_node -> bridge -> simulated PX4) in hover, measured.
 
 For one vehicle: stream quality at the FCU, latency from publication in ROS to arrival
-at the FCU, CPU and memory of each process, time to hover split by phase. Then N
+at the FCU (the kernel's receive time at the simulator's socket; how much later the simulator
+itself read each setpoint is reported apart, as its read lag), CPU and memory of each process, time to hover split by phase. Then N
 vehicles for each N in --scale until a vehicle misses the bar (p99 inter-arrival <= 60 ms
 and no gap over 200 ms), and then the largest N asked for, whose row is the target's.
 Prints a markdown table and writes JSON.
@@ -230,10 +231,14 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
                   % len(stale), flush=True)
     vehicles = []
     for i in range(n):
+        # arrival (the kernel's receive time at the simulator's socket), time_boot_ms, read by the simulator
         rows = [tuple(map(int, line.split())) for line in open(os.path.join(logdir, 'setpoints-%d.txt' % i))]
-        inside = [r for r in rows if window[0] <= r[0] <= window_end]
+        inside = [r[:2] for r in rows if window[0] <= r[0] <= window_end]
         quality = stream_quality([r[0] for r in inside])
+        read_lag = [(r[2] - r[0]) / 1e6 for r in rows if window[0] <= r[0] <= window_end]
         entry = {'vehicle': i, 'stream': quality, 'phases_s': watches[i].phases,
+                 'sim_read_lag_ms': {'p50': percentile(read_lag, 50), 'p99': percentile(read_lag, 99),
+                                     'max': max(read_lag) if read_lag else None},
                  'cpu_pct': {role: cpu.get((i, role)) for role in ('node', 'bridge', 'sim', 'clock')
                              if (i, role) in cpu or role != 'clock'},
                  'rss_mb': {role: rss.get((i, role)) for role in ('node', 'bridge', 'sim')}}
@@ -388,7 +393,9 @@ def _measure(args, scale, logdir):
              % (fmt(s['p50_ms']), fmt(s['p99_ms']), fmt(s['max_ms']), met(within(s['p99_ms'], 55) and within(s['max_ms'], 100))),
              '| gaps over 100 ms | %d | 0 | %s |' % (s['gaps_over_100ms'], met(s['gaps_over_100ms'] == 0)),
              '| latency ROS publish -> FCU p50 / p99 / max | %s / %s / %s ms | p99 <= 2 | %s |'
-             % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2), met(within(lat['p99'], 2.0)))]
+             % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2), met(within(lat['p99'], 2.0))),
+             '| simulator read lag (kernel arrival -> handled) p50 / p99 / max | %s / %s / %s ms | | |'
+             % tuple(fmt(single['sim_read_lag_ms'][k], 2) for k in ('p50', 'p99', 'max'))]
     for role in ('node', 'bridge', 'sim'):
         lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | | |'
                      % (role, fmt(single['cpu_pct'].get(role)), fmt(single['rss_mb'][role], 0)))
@@ -426,6 +433,7 @@ def _measure(args, scale, logdir):
                     for role in ('node', 'bridge', 'sim')}
         step = {'n': n, 'worst_rate_hz': min(st['rate_hz'] for st in streams), 'cpu_pct_per_vehicle': per_role,
                 'worst_p99_ms': max(st['p99_ms'] for st in streams), 'worst_max_ms': max(st['max_ms'] for st in streams),
+                'worst_sim_read_lag_p99_ms': max(v['sim_read_lag_ms']['p99'] or 0 for v in vehicles),
                 'total_cpu_pct': sum(c or 0 for v in vehicles for c in v['cpu_pct'].values()), 'holds_bar': ok}
         steps.append(step)
         if not ok:
@@ -438,20 +446,22 @@ def _measure(args, scale, logdir):
     table = ['simulator framing: %s; simulated vehicles: %s (sim_process:=%s)'
              % (result['framing'], SIM_PROCESSES[args.sim_process], args.sim_process), '',
              '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) '
-             '| per vehicle: node / bridge / sim (%) | bridge / real mavros | bar |',
-             '|---|---|---|---|---|---|---|---|']
+             '| per vehicle: node / bridge / sim (%) | bridge / real mavros | bar | simulator read lag p99 (ms) |',
+             '|---|---|---|---|---|---|---|---|---|']
     for st in steps:
         if 'error' in st:
-            table.append('| %d | failed: %s | | | | | | no |' % (st['n'], st['error']))
+            table.append('| %d | failed: %s | | | | | | no | |' % (st['n'], st['error']))
         else:
             role = st['cpu_pct_per_vehicle']
-            table.append('| %d | %s | %s | %s | %s | %s / %s / %s | %.2f-%.2f | %s |'
+            table.append('| %d | %s | %s | %s | %s | %s / %s / %s | %.2f-%.2f | %s | %s |'
                          % (st['n'], fmt(st['worst_rate_hz'], 2), fmt(st['worst_p99_ms']), fmt(st['worst_max_ms']),
                             fmt(st['total_cpu_pct'], 0), fmt(role['node'], 2), fmt(role['bridge'], 2),
                             fmt(role['sim'], 2), role['bridge'] / MAVROS_CPU_PCT[1], role['bridge'] / MAVROS_CPU_PCT[0],
-                            'yes' if st['holds_bar'] else 'no'))
-    table.append('\nbar: every vehicle\'s setpoint stream, measured at its simulated PX4, has an inter-arrival '
-                 'p99 <= %.0f ms and no gap over %.0f ms' % (BAR_P99_MS, BAR_MAX_MS))
+                            'yes' if st['holds_bar'] else 'no', fmt(st['worst_sim_read_lag_p99_ms'])))
+    table.append('\nbar: every vehicle\'s setpoint stream, as it reached its simulated PX4 (the kernel\'s receive time '
+                 'at its socket), has an inter-arrival p99 <= %.0f ms and no gap over %.0f ms' % (BAR_P99_MS, BAR_MAX_MS))
+    table.append('simulator read lag: how long after the kernel\'s arrival the simulator handled a setpoint (worst '
+                 'vehicle); a real PX4 reads its socket in a thread of its own')
     table.append('bridge / real mavros: the bridge\'s CPU over real mavros 1.21\'s recorded %.2f-%.2f %% of one core '
                  '(reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts")' % MAVROS_CPU_PCT)
     table.append('largest N holding the bar: %s (target: at least %d) %s'

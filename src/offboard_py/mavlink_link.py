@@ -19,6 +19,8 @@ import errno
 import logging
 import select
 import socket
+import struct
+import sys
 import threading
 import time
 from urllib.parse import urlsplit
@@ -44,6 +46,12 @@ MAX_PACKED_BYTES = 1400
 NEEDED_RECHECK_S = 0.05
 # PX4's UDP link (mavlink_receiver.cpp): with a default partner not on this host, the partner is
 # taken from the first datagram after this long since the link started (seconds of its clock)
+
+# Linux's SO_TIMESTAMPNS (and its control message, SCM_TIMESTAMPNS): the kernel's receive time of each
+# datagram as a struct timespec (CLOCK_REALTIME). Python's socket module does not name it; 35 on every
+# architecture but alpha, mips, parisc and sparc (asm-generic/socket.h).
+SO_TIMESTAMPNS = 35
+_TIMESPEC = struct.Struct('@qq')
 
 log = logging.getLogger(__name__)
 
@@ -167,7 +175,23 @@ class MavlinkLink:
         self._frame_hook = None  # on_frames(): (hook, needed) for the raw frames
         self.stats = collections.Counter()
         self.last_receive_s = None
+        self.arrival_ns = None  # stamp_arrivals(): the kernel's receive time (Unix ns) of the datagram being handled
+        self._ancillary = 0     # stamp_arrivals(): room for its control message
         self.signing = LinkSigning(self.mav, self._send_lock, self.stats)
+
+    def stamp_arrivals(self):
+        """Have the kernel stamp each datagram as it reaches the socket (SO_TIMESTAMPNS): while a datagram's
+        handlers run, `arrival_ns` is that time (Unix ns), however late this process read it. For the
+        benchmark, which times a stream as it reached the FCU and not when a busy simulator got to it; it
+        costs a recvmsg per datagram. False where the kernel has no such option (then arrival_ns stays None)."""
+        if not sys.platform.startswith('linux'):
+            return False
+        try:
+            self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+        except OSError:
+            return False
+        self._ancillary = socket.CMSG_SPACE(_TIMESPEC.size)
+        return True
 
     @staticmethod
     def _resolve(address):
@@ -341,7 +365,10 @@ class MavlinkLink:
         pending = self._pending.poll
         for _ in range(max_datagrams):
             try:
-                data, sender = self.sock.recvfrom(MAX_DATAGRAM)
+                if self._ancillary:
+                    data, sender = self._receive_stamped()
+                else:
+                    data, sender = self.sock.recvfrom(MAX_DATAGRAM)
             except (BlockingIOError, InterruptedError):
                 break
             except ConnectionRefusedError:
@@ -351,6 +378,15 @@ class MavlinkLink:
             if not pending(0):
                 break
         return count
+
+    def _receive_stamped(self):
+        data, ancillary, _flags, sender = self.sock.recvmsg(MAX_DATAGRAM, self._ancillary)
+        self.arrival_ns = None
+        for level, kind, value in ancillary:
+            if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(value) >= _TIMESPEC.size:
+                seconds, nanoseconds = _TIMESPEC.unpack_from(value)
+                self.arrival_ns = seconds * 1000000000 + nanoseconds
+        return data, sender
 
     def handle_datagram(self, data, sender=None):
         """Take one datagram on its own: UDP carries whole frames, so a truncated frame at the

@@ -24,20 +24,32 @@ VEHICLE_SPACING_M = 3.0  # --vehicles: north of each other, as multi_uav.launch 
 
 
 class SetpointLog:
-    """For the benchmark: the arrival time (ns) and time_boot_ms of each accepted setpoint,
-    kept in memory and written at exit, so the receive path only appends a pair. Arrivals are
-    on ROS's clock: Unix time in real time, the simulated clock (ns) at any other speed."""
+    """For the benchmark: each accepted setpoint's arrival (ns), time_boot_ms, and when the simulator read
+    it (ns), kept in memory and written at exit, so the receive path only appends a row. The arrival is the
+    kernel's receive time of its datagram (MavlinkLink.stamp_arrivals): the stream as it reached the FCU,
+    which is what PX4's receive thread, blocked on the socket, sees of it. The read time is when this
+    process got to it, later by however long a busy simulator took; the benchmark reports that lag on its
+    own. Where the kernel gives no stamp, the arrival is the read time. Times are on ROS's clock: Unix
+    time in real time, the simulated clock (ns) at any other speed."""
 
     def __init__(self, path, clock=None):
         self.path, self.rows = path, []
-        self.now_ns = time.time_ns if clock is None or clock.real_time else lambda: int(clock.now() * 1e9)
+        self.simulated = None if clock is None or clock.real_time else clock
 
-    def record(self, msg):
-        self.rows.append((self.now_ns(), msg.time_boot_ms))
+    def record(self, msg, arrival_ns=None):
+        """msg: the setpoint; arrival_ns: its datagram's kernel receive time (Unix ns) or None."""
+        now_ns = time.time_ns()
+        if arrival_ns is None:
+            arrival_ns = now_ns
+        if self.simulated is None:
+            self.rows.append((arrival_ns, msg.time_boot_ms, now_ns))
+        else:
+            read_ns = int(self.simulated.now() * 1e9)
+            self.rows.append((read_ns - int((now_ns - arrival_ns) * self.simulated.speed), msg.time_boot_ms, read_ns))
 
     def write(self):
         with open(self.path, 'w') as out:
-            out.write(''.join('%d %d\n' % row for row in self.rows))
+            out.write(''.join('%d %d %d\n' % row for row in self.rows))
 
 
 def _home(text):
@@ -126,8 +138,9 @@ def parser():
                         'datagrams as fit 1400 bytes (real mavros reads at most 296 bytes of a datagram and '
                         'cannot fly this)')
     p.add_argument('--setpoint-log', metavar='DIR',
-                   help='at exit, write DIR/setpoints-N.txt: arrival time (ns) and time_boot_ms of each '
-                        'accepted setpoint (for the benchmark)')
+                   help='at exit, write DIR/setpoints-N.txt: arrival time (ns, the kernel\'s receive time), '
+                        'time_boot_ms and read time (ns, when the simulator handled it) of each accepted '
+                        'setpoint (for the benchmark)')
     p.add_argument('--signing-key', metavar='FILE',
                    help='MAVLink 2 signing key file in PX4\'s format (32 bytes, optionally + 8-byte timestamp): '
                         'sign everything sent and drop unsigned or badly signed input, as PX4 with a key does')
@@ -183,8 +196,13 @@ def main(argv=None):
         if args.ideal:
             sim.flight.set_ideal()
         if args.setpoint_log:
-            setpoint_logs.append(SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % instance), clock))
-            sim.on_setpoint_accepted.append(setpoint_logs[-1].record)
+            setpoint_log = SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % instance), clock)
+            if not all([link.stamp_arrivals() for link in sim.links]):
+                logging.warning('this kernel does not stamp datagrams (SO_TIMESTAMPNS): the setpoint log takes '
+                                'arrivals as the simulator read them')
+            sim.on_setpoint_accepted.append(
+                lambda msg, sim=sim, setpoint_log=setpoint_log: setpoint_log.record(msg, sim.reply_link.arrival_ns))
+            setpoint_logs.append(setpoint_log)
 
     def stop(_signum, _frame):
         for sim in sims:
