@@ -3,9 +3,10 @@
 
 For one vehicle: stream quality at the FCU, latency from publication in ROS to arrival
 at the FCU (the kernel's receive time at the simulator's socket; how much later the simulator
-itself read each setpoint is reported apart, as its read lag), CPU and memory of each process, time to hover split by phase. Then N
-vehicles for each N in --scale until a vehicle misses the bar (p99 inter-arrival <= 60 ms
-and no gap over 200 ms), and then the largest N asked for, whose row is the target's.
+itself read each setpoint is reported apart, as its read lag), CPU and memory of each process,
+time to hover split by phase. Then N vehicles for each N in --scale until a vehicle misses
+the bar (p99 inter-arrival <= 60 ms and no gap over 200 ms), and then the largest N asked for,
+whose row is the target's.
 Prints a markdown table and writes JSON.
 Run it through `./run bench` (which sets up and sources the workspace); `./run bench --replay [args]`
 measures the bridge alone on PX4 SITL's recorded stream instead (bench/replay_bench.py).
