@@ -26,6 +26,10 @@ class TwoVehiclesTest(OffboardTestCase):
         # stacks start a second or two apart in wall time, which simulated time at OFFBOARD_PY_SPEED
         # multiplies, so the arming times themselves may be 5 s apart; the time each node took from its
         # first setpoint to armed may not: that is the same tutorial schedule on two independent stacks.
+        unseen = [u.ns for u in uavs if not u.setpoints]
+        if unseen:
+            self.fail('no setpoint of offb_node seen on %s/setpoint_position/local: its schedule cannot be timed'
+                      % ', '.join(unseen))
         started_at = [u.setpoints[0] for u in uavs]
         armed_at = [next(t for t, s in u.states if s.armed) for u in uavs]
         took = [a - s for a, s in zip(armed_at, started_at)]
