@@ -234,9 +234,10 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
     for i in range(n):
         # arrival (the kernel's receive time at the simulator's socket), time_boot_ms, read by the simulator
         rows = [tuple(map(int, line.split())) for line in open(os.path.join(logdir, 'setpoints-%d.txt' % i))]
-        inside = [r[:2] for r in rows if window[0] <= r[0] <= window_end]
-        quality = stream_quality([r[0] for r in inside])
-        read_lag = [(r[2] - r[0]) / 1e6 for r in rows if window[0] <= r[0] <= window_end]
+        rows = [r for r in rows if window[0] <= r[0] <= window_end]
+        inside = [r[:2] for r in rows]
+        quality = stream_quality([r[0] for r in rows])
+        read_lag = [(r[2] - r[0]) / 1e6 for r in rows]
         entry = {'vehicle': i, 'stream': quality, 'phases_s': watches[i].phases,
                  'sim_read_lag_ms': {'p50': percentile(read_lag, 50), 'p99': percentile(read_lag, 99),
                                      'max': max(read_lag) if read_lag else None},
