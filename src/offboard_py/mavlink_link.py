@@ -51,7 +51,18 @@ NEEDED_RECHECK_S = 0.05
 # datagram as a struct timespec (CLOCK_REALTIME). Python's socket module does not name it; 35 on every
 # architecture but alpha, mips, parisc and sparc (asm-generic/socket.h).
 SO_TIMESTAMPNS = 35
-_TIMESPEC = struct.Struct('@qq')
+TIMESPEC = struct.Struct('@qq')
+STAMP_ANCILLARY_BYTES = socket.CMSG_SPACE(TIMESPEC.size)
+
+
+def kernel_stamp_ns(ancillary):
+    """The SO_TIMESTAMPNS receive time (Unix ns) in recvmsg()'s ancillary data, or None."""
+    for level, kind, value in ancillary:
+        if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(value) >= TIMESPEC.size:
+            seconds, nanoseconds = TIMESPEC.unpack_from(value)
+            return seconds * 1000000000 + nanoseconds
+    return None
+
 
 log = logging.getLogger(__name__)
 
@@ -190,7 +201,7 @@ class MavlinkLink:
             self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
         except OSError:
             return False
-        self._ancillary = socket.CMSG_SPACE(_TIMESPEC.size)
+        self._ancillary = STAMP_ANCILLARY_BYTES
         return True
 
     @staticmethod
@@ -381,11 +392,7 @@ class MavlinkLink:
 
     def _receive_stamped(self):
         data, ancillary, _flags, sender = self.sock.recvmsg(MAX_DATAGRAM, self._ancillary)
-        self.arrival_ns = None
-        for level, kind, value in ancillary:
-            if level == socket.SOL_SOCKET and kind == SO_TIMESTAMPNS and len(value) >= _TIMESPEC.size:
-                seconds, nanoseconds = _TIMESPEC.unpack_from(value)
-                self.arrival_ns = seconds * 1000000000 + nanoseconds
+        self.arrival_ns = kernel_stamp_ns(ancillary)
         return data, sender
 
     def handle_datagram(self, data, sender=None):

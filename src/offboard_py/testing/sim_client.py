@@ -29,6 +29,7 @@ from pymavlink import mavutil
 
 from offboard_py import px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, check_pymavlink_version, mavlink
+from offboard_py.mavlink_link import SO_TIMESTAMPNS, STAMP_ANCILLARY_BYTES, kernel_stamp_ns
 from offboard_py.simtime import SimClock, parse_speed, speed_from_env
 from offboard_py.testing import ports
 from offboard_py.testing.processes import OutputProcess
@@ -41,10 +42,8 @@ SIM_COMMAND = (sys.executable, '-c', 'from offboard_py.sim.main import main; rai
 GCS_EXTRA_PORT = 9  # the extra port (offboard_py.testing.ports) a test's ground station binds
 START_WALL_S = 10.0  # a simulator's first HEARTBEAT: starting Python and importing take wall time
 START_ATTEMPTS = 3   # instances tried when another process takes the chosen one's ports first
-# Linux's kernel receive stamps (socket(7)): CLOCK_REALTIME as struct timespec; Python does not name them
-SO_TIMESTAMPNS = SCM_TIMESTAMPNS = 35
-TIMESPEC = struct.Struct('@qq')
-# ... and the count of datagrams the socket dropped for a full receive buffer (uint32, since it opened)
+# Linux names no constant for these either: the count of datagrams the socket dropped for a full receive
+# buffer (uint32, since it opened) ...
 SO_RXQ_OVFL = 40
 DROPS = struct.Struct('@I')
 SO_RCVBUFFORCE = 33  # past net.core.rmem_max, for root
@@ -151,7 +150,7 @@ class Client:
                 continue
             try:
                 data, ancdata, _, address = sock.recvmsg(
-                    65535, socket.CMSG_SPACE(TIMESPEC.size) + socket.CMSG_SPACE(DROPS.size))
+                    65535, STAMP_ANCILLARY_BYTES + socket.CMSG_SPACE(DROPS.size))
             except (BlockingIOError, ConnectionRefusedError):
                 continue
             now = self._arrival_s(ancdata)
@@ -172,12 +171,10 @@ class Client:
 
     def _arrival_s(self, ancdata):
         """The kernel's arrival stamp (realtime) on the simulated clock; now, when there is none."""
-        for level, kind, data in ancdata:
-            if level == socket.SOL_SOCKET and kind == SCM_TIMESTAMPNS and len(data) >= TIMESPEC.size:
-                sec, nsec = TIMESPEC.unpack_from(data)
-                monotonic_s = sec + nsec * 1e-9 - (time.time() - time.monotonic())
-                return self.clock.sim_s(monotonic_s)
-        return self.clock.now()
+        stamp_ns = kernel_stamp_ns(ancdata)
+        if stamp_ns is None:
+            return self.clock.now()
+        return self.clock.sim_s(stamp_ns * 1e-9 - (time.time() - time.monotonic()))
 
     def send(self, msg):
         with self.lock:
