@@ -6,7 +6,8 @@ working folder for the instance (fresh parameters at every start, as the referen
 were made), and replaces itself with PX4 started as PX4's own multi-instance script starts it:
 `px4 -i N -d <build>/etc` in that folder, airframe 10040 (sihsim_quadx). PX4 SITL instance N
 then speaks MAVLink on the same ports as our simulator's instance N (onboard link 14580+N ->
-14540+N, GCS link 18570+N -> 14550), with system id N+1.
+14540+N, GCS link 18570+N -> 14550), with system id N+1; above instance 9 PX4 sends its onboard link
+to 14549 until something speaks to it, and the bridge's HEARTBEAT does.
 
 What is missing (no folder, no build, a build without the SIH airframe) is one error naming it,
 and the exit code 1 ends the launch (the node is required). Nothing here builds PX4.

@@ -99,7 +99,7 @@ def _system_ids(text):
 def parser():
     p = argparse.ArgumentParser(prog='sim_px4.py', description=(
         'A simulated PX4 multicopter on MAVLink 2 over UDP, as PX4 SITL: system id N+1, '
-        'onboard link on local port 14580+N sending to 14540+N, ground-station link on 18570+N '
+        'onboard link on local port 14580+N sending to 14540+N (14620 for N=10), ground-station link on 18570+N '
         'sending to 14550; each answers whoever talks to it.'))
     p.add_argument('params', nargs='*', metavar='NAME=VALUE', help='parameter overrides, e.g. COM_OF_LOSS_T=1.0')
     p.add_argument('-i', '--instance', type=_instance, default=0, help='SITL instance N (default 0)')
@@ -114,7 +114,8 @@ def parser():
                         'launch files: one wake-up serves them all (default 1)' % VEHICLE_SPACING_M)
     p.add_argument('--bind', default='127.0.0.1', help='address to bind (default 127.0.0.1: loopback only)')
     p.add_argument('--local-port', type=int, help='UDP port to bind (default 14580+N)')
-    p.add_argument('--remote-port', type=int, help='UDP port to send to until a client talks (default 14540+N)')
+    p.add_argument('--remote-port', type=int, help='UDP port to send to until a client talks (default 14540+N; 14620 for N=10, '
+                   'whose 14540+N is the ground station\'s 14550)')
     p.add_argument('--gcs-port', type=int, help='UDP port of the ground-station link (default 18570+N, as PX4 SITL)')
     p.add_argument('--gcs-remote-port', type=int,
                    help='UDP port the ground-station link sends to until a client talks to it (default 14550)')

@@ -4,13 +4,14 @@ A test vehicle is SITL instance N (0..39) and, as in PX4 SITL:
   system id          N + 1
   FCU port           14580 + N   the simulated PX4 binds it
   bridge port        14540 + N   the bridge (fcu_url) binds it; the simulator sends there
+                                 (N = 10: 14620, see offboard_py.sitl_ports)
   extra port k       15000 + 10 N + k  (k = 0..9) relays, a GCS, a fake FCU, control ports
 N stays below 40 so that the FCU and bridge ranges never overlap.
 
 Who uses which N:
   0..19   the rostests, one block each, given in CMakeLists.txt (`instance:=N`), but not
-          10 or 15: their bridge ports are 14550, where every simulator's GCS link sends
-          (as PX4 SITL's), and 14555, mavros's default GCS bind port;
+          15: its bridge port is 14555, mavros's default GCS bind port (nor 10, whose bridge
+          port was 14550, where every simulator's GCS link sends, before sitl_ports moved it);
           two_vehicles.test takes 0 and 1 (multi_uav.launch numbers vehicles from 0)
   20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
   38, 39  a .test file run by hand without `instance:=N` (its default)
