@@ -36,7 +36,7 @@ from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quali
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
 SCALE_TARGET = 32  # vehicles on the development machine (2 cores)
-STACK_TARGET_PCT = 5.0  # node + bridge + simulator, % of one core a vehicle (issue 28)
+STACK_TARGET_PCT = 5.0  # node + bridge + simulator, % of one core a vehicle
 CLK_TCK = os.sysconf('SC_CLK_TCK')
 # Real mavros 1.21 and real PX4 SITL (SIH) hovering under the project's offb_node, % of one core, two runs each:
 # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts" (stack A)
