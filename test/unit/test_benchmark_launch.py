@@ -2,13 +2,9 @@
 required bridge that could not bind its port ended a 32-vehicle launch, and the benchmark used to wait
 out its 308 s start-up bound and then blame every vehicle)."""
 
-import importlib.util
-import os
-import sys
-
 import pytest
 
-BENCH = os.path.join(os.path.dirname(__file__), '..', '..', 'bench')
+import bench_scripts
 
 # The lines of the launch log of 2026-11-26 02:40 (a socket held 14550), colour codes and all
 DIED = ('\x1b]2;/work/main/.ws/src/offboard_py/launch/multi_uav.launch\x07\n'
@@ -22,14 +18,7 @@ DIED = ('\x1b]2;/work/main/.ws/src/offboard_py/launch/multi_uav.launch\x07\n'
 
 @pytest.fixture(scope='module')
 def benchmark():
-    sys.path.insert(0, os.path.abspath(BENCH))
-    try:
-        spec = importlib.util.spec_from_file_location('benchmark', os.path.join(BENCH, 'benchmark.py'))
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        yield module
-    finally:
-        sys.path.remove(os.path.abspath(BENCH))
+    return bench_scripts.load('benchmark')
 
 
 def write(tmp_path, text):

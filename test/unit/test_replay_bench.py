@@ -2,29 +2,19 @@
 file's environment, finding the measured process under a launcher, refusing --compare
 without mavros, and the side-by-side table."""
 
-import importlib.util
 import os
 import subprocess
-import sys
 import time
 
 import pytest
 
+import bench_scripts
 from offboard_py import stack
-
-BENCH = os.path.join(os.path.dirname(__file__), '..', '..', 'bench')
 
 
 @pytest.fixture(scope='module')
 def replay_bench():
-    sys.path.insert(0, os.path.abspath(BENCH))  # replay_bench imports benchmark, its neighbour
-    try:
-        spec = importlib.util.spec_from_file_location('replay_bench', os.path.join(BENCH, 'replay_bench.py'))
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        yield module
-    finally:
-        sys.path.remove(os.path.abspath(BENCH))
+    return bench_scripts.load('replay_bench')
 
 
 def _package(root, name):

@@ -1,15 +1,12 @@
 """The soak's rules, offline: the seeded schedule, recovery after a fault, lapses, the RSS rule;
 and bench/soak.py's argument checks."""
 
-import importlib.util
-import os
-
 import pytest
 
+import bench_scripts
 from offboard_py.tools import soak_rules as soak
 
 CONN_TIMEOUT_S = 4.0
-BENCH_SOAK = os.path.join(os.path.dirname(__file__), '..', '..', 'bench', 'soak.py')
 
 
 # --- the schedule ----------------------------------------------------------------------------
@@ -203,10 +200,7 @@ def test_verdict_names_every_reason_and_passes_when_there_is_none():
 
 @pytest.fixture(scope='module')
 def bench_soak():
-    spec = importlib.util.spec_from_file_location('bench_soak', BENCH_SOAK)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return bench_scripts.load('soak')
 
 
 @pytest.mark.parametrize('argv, message', [
