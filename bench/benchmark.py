@@ -16,7 +16,6 @@ import argparse
 import json
 import os
 import platform
-import re
 import signal
 import subprocess
 import sys
@@ -32,6 +31,7 @@ from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
 from offboard_py.stack import SIM_PROCESSES
+from offboard_py.tools.demo import launch_failure
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
@@ -134,25 +134,6 @@ def rss_mb(pid):
     return None
 
 
-# roslaunch colours its lines and sets the terminal's title, in its log too
-TERMINAL_CODES = re.compile(r'\x1b\[[0-9;]*m|\x1b\][^\x07]*\x07')
-
-
-def launch_failure(path):
-    """What a roslaunch log says went wrong, for a launch that ended on its own: its first FATAL line,
-    else its first required process that died, else its last line (terminal codes taken out)."""
-    try:
-        with open(path, errors='replace') as f:
-            lines = [line for line in (TERMINAL_CODES.sub('', raw).strip() for raw in f) if line]
-    except OSError as err:
-        return 'its log cannot be read: %s' % err
-    for marker in ('[FATAL]', 'REQUIRED process'):
-        for line in lines:
-            if marker in line:
-                return line
-    return lines[-1] if lines else 'its log is empty'
-
-
 def startup_bound_s(n):
     """How long n vehicles may take from the launch to hover: about 25 s for one, and on 2 cores
     the start-up of 3 Python processes a vehicle (imports, registration) grows with n."""
@@ -219,8 +200,9 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
             if all('hover' in w.phases for w in watches):
                 break
             if launch.poll() is not None:  # a required node died (a port taken, a bad parameter): no wait
+                reason = launch_failure(launch_log.name, lines=1) or ['no failure in its log']
                 raise RuntimeError('the launch of %d vehicles ended (exit %s) before they all hovered: %s (%s)'
-                                   % (n, launch.returncode, launch_failure(launch_log.name), launch_log.name))
+                                   % (n, launch.returncode, reason[0], launch_log.name))
             if time.monotonic() > deadline:
                 missing = [i for i, w in enumerate(watches) if 'hover' not in w.phases]
                 raise RuntimeError('vehicles %s not hovering after %.0f s' % (missing, startup_timeout_s))

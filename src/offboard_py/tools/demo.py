@@ -172,15 +172,22 @@ def said_launch_ended(launch, log_path, what):
 
 
 def launch_failure(path, lines=6):
-    """Why roslaunch ended, from its log: the lines that say a process failed or died."""
+    """Why roslaunch ended, from its log, at most `lines` lines: first what a node said was FATAL and the
+    required processes that died (the cause, in order), then the last of the other lines that say a process
+    failed or died and the simulator's last words (a fleet's simulators log their counters at exit, after
+    the cause)."""
     try:
         with open(path, errors='replace') as f:
             text = f.read().splitlines()
     except OSError:
         return []
     keys = ('error', 'fatal', 'died', 'not found')
-    plain = (re.sub(r'\x1b\[[0-9;]*m|={3,}', '', line).strip() for line in text)  # no colours, no rules
-    return [line for line in plain if line.startswith('[sim_px4') or any(k in line.lower() for k in keys)][-lines:]
+    plain = (re.sub(r'\x1b\[[0-9;]*m|\x1b\][^\x07]*\x07|={3,}', '', line).strip() for line in text)  # no colours, titles, rules
+    said = [line for line in plain if line.startswith('[sim_px4') or any(k in line.lower() for k in keys)]
+    causes = [line for line in said if line.startswith('[FATAL]') or line.startswith('REQUIRED process')][:lines]
+    rest = [line for line in said if line not in causes]
+    room = lines - len(causes)
+    return causes + (rest[-room:] if room else [])
 
 
 def main(argv=None):
