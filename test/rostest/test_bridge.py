@@ -396,10 +396,14 @@ class BridgeTest(OffboardTestCase):
 
     def test_09c_fcu_stamped_topics_are_on_ros_time(self):
         """After the timesync filter converged (20 samples here), pose, imu, global and altitude are
-        stamped FCU time + offset: within 20 ms of ROS time at arrival (the issue's bound; with 20
-        samples the estimate can sit a millisecond or two ahead, so both signs are allowed).
-        A stamp ahead of its arrival is the clock's error and is held to 20 ms every time; a late
-        arrival is also delivery (scheduling on a busy machine), so 90 % are held to 20 ms."""
+        stamped FCU time + offset: within 20 ms of ROS time (the issue's bound; with 20 samples the
+        estimate can sit a millisecond or two ahead, so both signs are allowed).
+        Arrival minus stamp is the clock's error plus the data's age and its delivery: the
+        simulated PX4 sends the first step of each pair of 100 Hz steps 10 ms after its time, as
+        it documents (a 10 Hz topic is then 10 ms older every time), and the bridge and rospy add
+        some ms, more on a busy machine. So the clock is held by the quickest arrival of each
+        topic (within 20 ms either side of its stamp, every time), and the delivery loosely:
+        90 % of arrivals within 60 ms of their stamps."""
         self.wait_for_connected(self.sim, 15.0)
         got = {}
 
@@ -418,11 +422,14 @@ class BridgeTest(OffboardTestCase):
                 sub.unregister()
         for topic, pairs in got.items():
             lags = sorted((arrival - stamp).to_sec() * 1000.0 for arrival, stamp in pairs)
+            shown = ['%.1f' % lag for lag in lags]
             self.assertGreaterEqual(lags[0], -20.0, '%s: header stamps ahead of their arrival (ms): %s' % (
                 topic, ['%.1f' % lag for lag in lags if lag < -20.0]))
+            self.assertLessEqual(lags[0], 20.0, '%s: even the quickest arrival is %.1f ms after its stamp: the '
+                                 'stamps are behind ROS time (all, ms: %s)' % (topic, lags[0], shown))
             p90 = lags[int(0.9 * (len(lags) - 1))]
-            self.assertLessEqual(p90, 20.0, '%s: arrival minus header stamp p90 %.1f ms (all: %s)' % (
-                topic, p90, ['%.1f' % lag for lag in lags]))
+            self.assertLessEqual(p90, 60.0, '%s: arrival minus header stamp p90 %.1f ms (all: %s)' % (
+                topic, p90, shown))
 
     def test_09d_more_mavros_topics_carry_the_fcus_data(self):
         """The topics mavros users reach for, at the rate of the FCU message behind each (PX4's
