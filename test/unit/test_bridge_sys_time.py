@@ -19,14 +19,17 @@ MS = 1000000
 
 
 def test_filter_converges_to_the_offset_through_jitter():
+    """mavros's sys_time hands its UAS the offset after the filter update and before counting the
+    sample: the 500th sample converges the filter, the 501st is the first whose offset is used."""
     f = TimesyncFilter(convergence_window=500)
     rng = random.Random(1)
     true_offset = 1795441000 * 10 ** 9 - 50 * 10 ** 9
-    for i in range(499):
+    for i in range(500):
         assert f.observe(true_offset + rng.randint(-2 * MS, 2 * MS), rng.randint(0, 3 * MS)) is None
-        assert f.offset_ns == 0, 'no offset is used before the filter has converged'
+        assert f.offset_ns == 0, 'no offset is used before the filter has converged (sample %d)' % (i + 1)
+    assert f.converged
     f.observe(true_offset, MS)
-    assert f.converged and abs(f.offset_ns - true_offset) < 1 * MS
+    assert abs(f.offset_ns - true_offset) < 1 * MS
 
 
 def test_filter_skips_slow_or_foreign_round_trips_and_warns_after_six():
@@ -39,12 +42,15 @@ def test_filter_skips_slow_or_foreign_round_trips_and_warns_after_six():
 
 def test_filter_resets_after_a_clock_jump():
     f = TimesyncFilter(convergence_window=10)
-    for _ in range(10):
+    for _ in range(11):
         f.observe(100 * MS, MS)
-    assert f.converged
+    assert f.converged and abs(f.offset_ns - 100 * MS) <= 1
     results = [f.observe(100 * MS + 10 ** 9, MS) for _ in range(6)]
     assert results[:5] == [None] * 5 and 'Time jump detected' in results[5]
-    assert not f.converged and f.offset_ns == 0
+    # as mavros: the reset leaves its UAS's offset until the next accepted sample sets it to 0
+    assert not f.converged and f.sequence == 0 and abs(f.offset_ns - 100 * MS) <= 1
+    f.observe(100 * MS + 10 ** 9, MS)
+    assert f.offset_ns == 0, 'the first sample after the reset: not converged, no offset'
 
 
 class TickingRos:
@@ -124,6 +130,8 @@ def test_fcu_stamped_pose_uses_the_offset_once_converged():
     for i in range(5):
         r.bridge.run_periodic(r.clock.now_s + i)  # the 10 Hz request, answered at once
     assert len(r.fcu.got('TIMESYNC')) == 5 and r.plugin.filter.converged
+    assert pose_stamp(50100) == rospy.Time(1000), 'converged by the 5th sample; as mavros, used from the 6th'
+    r.bridge.run_periodic(r.clock.now_s + 5)
     assert pose_stamp(50100) == rospy.Time(1000, 100 * MS), 'FCU time 50.1 s + offset 950 s'
 
 

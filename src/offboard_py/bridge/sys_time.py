@@ -13,9 +13,10 @@ As mavros's sys_time plugin does it (timesync mode MAVLINK, the default):
   smooths the rest, its gains moving from *_initial to *_final over time/convergence_window
   samples. Once converged, a run of samples far from the estimate (a clock jump on the FCU)
   resets it.
-- FCU-stamped topics are stamped FCU time + offset once the filter has converged; before
-  that (and with mode NONE) they are stamped with ROS time now, as mavros's
-  synchronise_stamp(). PASSTHROUGH stamps with the FCU's time as it is.
+- FCU-stamped topics are stamped FCU time + offset once the filter has converged (as mavros
+  hands the offset on, from the sample after the window's last; a reset keeps the last offset
+  until the next accepted sample); before that (and with mode NONE) they are stamped with ROS
+  time now, as mavros's synchronise_stamp(). PASSTHROUGH stamps with the FCU's time as it is.
 - SYSTEM_TIME with a plausible Unix time is published on ~time_reference
   (sensor_msgs/TimeReference, source time/time_ref_source).
 - SYSTEM_TIME goes to the FCU every 1/conn/system_time_rate s (px4_config.yaml: 1.0): time_unix_usec
@@ -47,6 +48,7 @@ class TimesyncFilter:
         self.convergence_window = convergence_window
         self.max_rtt_ns, self.max_deviation_ns = max_rtt_ms * 1e6, max_deviation_ms * 1e6
         self.max_high_rtt, self.max_high_deviation = max_high_rtt, max_high_deviation
+        self.applied_ns = 0  # the offset stamps use (mavros's UAS time offset): set by accepted samples only
         self.reset()
 
     def reset(self):
@@ -61,8 +63,10 @@ class TimesyncFilter:
 
     @property
     def offset_ns(self):
-        """The offset to apply (ROS time = FCU time + offset): 0 until the filter has converged."""
-        return int(self.estimate_ns) if self.converged else 0
+        """The offset to apply (ROS time = FCU time + offset), as mavros hands it to its UAS: each accepted
+        sample sets it, to the estimate once the filter had converged before that sample (so from the
+        (window + 1)th sample on), else to 0; a reset leaves it as it was until the next accepted sample."""
+        return self.applied_ns
 
     def observe(self, offset_ns, rtt_ns):
         """One TIMESYNC round trip. Returns a warning to log, or None."""
@@ -91,6 +95,7 @@ class TimesyncFilter:
             previous = self.estimate_ns
             self.estimate_ns = alpha * offset_ns + (1.0 - alpha) * (self.estimate_ns + self.skew_ns)
             self.skew_ns = beta * (self.estimate_ns - previous) + (1.0 - beta) * self.skew_ns
+        self.applied_ns = int(self.estimate_ns) if self.converged else 0  # before the count moves, as mavros
         self.sequence += 1
         self.high_deviation = self.high_rtt = 0
         return None
