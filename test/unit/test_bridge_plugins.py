@@ -867,7 +867,7 @@ def test_cmd_vel_goes_out_as_velocity_and_yaw_rate_and_target_local_comes_back_e
 def test_diagnostics_say_what_mavros_says():
     from offboard_py.bridge import diagnostics
     rig = Rig(sys_status.SysStatus, global_position.GlobalPosition, diagnostics.Diagnostics)
-    rig.bridge.run_periodic(rig.clock.now_s + 1.0)
+    rig.tick(rig.clock.now_s + 1.0)
     [array] = rig.published('/diagnostics')
     by_name = {s.name: s for s in array.status}
     assert set(by_name) == {'mavros: FCU connection', 'mavros: Heartbeat', 'mavros: GPS'}
@@ -875,13 +875,45 @@ def test_diagnostics_say_what_mavros_says():
     assert by_name['mavros: FCU connection'].message == 'not connected'
     rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED))
     rig.fcu.send(BUILD.gps_raw_int_encode(1000000, 3, 473977420, 85455940, 488000, 70, 110, 0, 0, 10))
-    rig.bridge.run_periodic(rig.clock.now_s + 2.0)
+    rig.tick(rig.clock.now_s + 2.0)
     by_name = {s.name: s for s in rig.published('/diagnostics')[-1].status}
     gps = by_name['mavros: GPS']
     assert (gps.level, gps.message) == (0, '3D fix')
     assert {kv.key: kv.value for kv in gps.values}['EPH (m)'] == '0.70'
     assert (by_name['mavros: FCU connection'].level, by_name['mavros: Heartbeat'].level) == (0, 0)
-    assert {kv.key: kv.value for kv in by_name['mavros: Heartbeat'].values}['Vehicle type'] == 'MAV_TYPE_QUADROTOR'
+    # mavros 1.21's HeartbeatStatus: its keys in its order, its enum strings (enum_to_string.cpp)
+    values = [(kv.key, kv.value) for kv in by_name['mavros: Heartbeat'].values]
+    assert [key for key, _ in values] == ['Heartbeats since startup', 'Frequency (Hz)', 'Vehicle type',
+                                          'Autopilot type', 'Mode', 'System status']
+    assert [value for key, value in values if key != 'Frequency (Hz)'] == [
+        '1', 'Quadrotor', 'PX4 Autopilot', 'AUTO.LOITER', 'Standby']
+
+
+def test_heartbeat_status_counts_the_last_ten_periods_as_mavros():
+    """mavros's HeartbeatStatus before any heartbeat (GENERIC, UNINIT, no mode), and 'No events
+    recorded.' again only once ten diagnostics periods have passed without one, connected or not."""
+    from offboard_py.bridge import diagnostics
+    rig = Rig(sys_status.SysStatus, diagnostics.Diagnostics)
+
+    def heartbeat_status(at_s):
+        rig.tick(at_s)
+        status = {s.name: s for s in rig.published('/diagnostics')[-1].status}['mavros: Heartbeat']
+        return status.level, status.message, {kv.key: kv.value for kv in status.values}
+    start_s = rig.clock.now_s
+    level, message, values = heartbeat_status(start_s + 1.0)
+    assert (level, message) == (2, 'No events recorded.')
+    assert (values['Vehicle type'], values['Autopilot type'], values['System status'], values['Mode']) == (
+        'Generic micro air vehicle', 'Generic autopilot', 'Uninit', '')
+    for i in range(2, 12):  # a heartbeat a second for ten seconds
+        rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED))
+        level, message, values = heartbeat_status(start_s + i)
+    assert (level, message, values['Heartbeats since startup']) == (0, 'Normal', '10')
+    assert float(values['Frequency (Hz)']) == pytest.approx(1.0)
+    for i in range(12, 21):  # then none: the last ten periods still hold some (the connection times out meanwhile)
+        level, message, values = heartbeat_status(start_s + i)
+        assert level != 2, 'only %d periods without a heartbeat' % (i - 11)
+    assert (level, message) == (1, 'Frequency too low.'), 'one heartbeat in ten seconds: under 0.2 Hz'
+    assert heartbeat_status(start_s + 21)[:2] == (2, 'No events recorded.')
 
 
 

@@ -8,9 +8,10 @@ converged (time/convergence_window samples), with ROS time now before that.
 
 import random
 
+import pytest
 import rospy
 
-from offboard_py.bridge import local_position, sys_time
+from offboard_py.bridge import diagnostics, local_position, sys_time
 from offboard_py.bridge.sys_time import TimesyncFilter
 from offboard_py.dialect import mavlink
 from bridge_rig import BUILD, Rig
@@ -154,3 +155,59 @@ def test_time_reference_from_system_time():
     assert ref.header.stamp == rospy.Time(1000)
     r.fcu.send(BUILD.system_time_encode(0, 6000))
     assert len(r.published('~time_reference')) == 1, 'no Unix time yet: nothing published'
+
+
+def test_time_sync_status_says_what_mavros_says():
+    """mavros's TimeSyncStatus: every answer to our requests counts (a slow one too), the frequency
+    over the last ten diagnostics periods, the mean round trip, the FCU's time in the last answer and
+    the estimate, in mavros's keys and formats; a time-jump reset starts it again; no such status
+    without MAVLINK timesync."""
+    none = Rig(sys_time.SysTime, diagnostics.Diagnostics, time__timesync_mode='NONE')
+    none.tick(none.clock.now_s + 1.0)
+    assert 'mavros: Time Sync' not in {s.name for s in none.published('/diagnostics')[-1].status}
+
+    r = Rig(sys_time.SysTime, diagnostics.Diagnostics, time__convergence_window=20)
+    r.ros_time = TickingRos(r.ros, 1000 * 10 ** 9)
+    r.bridge._ros = r.ros_time
+    r.bridge.connected = True
+    fcu = {'ns': 5 * 10 ** 9, 'rtt_ns': 2 * MS}
+
+    def answer(m):
+        if m.tc1:
+            return []
+        r.ros_time.now_ns += fcu['rtt_ns']  # the answer comes back rtt_ns after the request left
+        return [BUILD.timesync_encode(fcu['ns'], m.ts1)]
+
+    def status():
+        found = {s.name: s for s in r.published('/diagnostics')[-1].status}['mavros: Time Sync']
+        return found.level, found.message, [(kv.key, kv.value) for kv in found.values]
+    start_s = r.clock.now_s
+    r.tick(start_s + 1.0)  # requests go out; the FCU does not answer yet
+    assert status()[:2] == (2, 'No events recorded.')
+    r.fcu.answers['TIMESYNC'] = answer
+    for i in range(1, 101):  # ten seconds of requests at 10 Hz, both clocks moving alike
+        fcu['ns'] += 10 ** 8
+        r.ros_time.now_ns = 1000 * 10 ** 9 + i * 10 ** 8
+        fcu['rtt_ns'] = 12 * MS if i == 50 else 2 * MS  # over max_rtt_sample: counted, not a filter sample
+        r.tick(start_s + 1.0 + 0.1 * i)
+    level, message, values = status()
+    assert (level, message) == (0, 'Normal')
+    assert [k for k, _ in values] == ['Timesyncs since startup', 'Frequency (Hz)', 'Last RTT (ms)', 'Mean RTT (ms)',
+                                      'Last remote time (s)', 'Estimated time offset (s)']
+    values = dict(values)
+    count = int(values['Timesyncs since startup'])
+    assert count == 100, 'an answer to each request'
+    assert r.plugin.filter.sequence == count - 1, 'the slow round trip counted but was not a sample'
+    assert float(values['Frequency (Hz)']) == pytest.approx(10.0, abs=0.5)
+    assert values['Last RTT (ms)'] == '2.000000'
+    assert float(values['Mean RTT (ms)']) == pytest.approx((2.0 * (count - 1) + 12.0) / count, abs=1e-6)
+    assert values['Last remote time (s)'] == '%0.9f' % (fcu['ns'] / 1e9)
+    assert values['Estimated time offset (s)'] == '%0.9f' % (int(r.plugin.filter.estimate_ns) / 1e9)
+    fcu['ns'] += 10 ** 9  # the FCU's clock jumps a second: the sixth answer far from the estimate resets
+    for i in range(101, 111):
+        fcu['ns'] += 10 ** 8
+        r.ros_time.now_ns = 1000 * 10 ** 9 + i * 10 ** 8
+        r.tick(start_s + 1.0 + 0.1 * i)
+    values = dict(status()[2])
+    assert r.plugin.filter.jumps == 1 and int(values['Timesyncs since startup']) < 10, 'counted again from the reset'
+    assert values['Mean RTT (ms)'] == '2.000000', 'the slow round trip went with the reset'

@@ -12,14 +12,12 @@
   (COMMAND_LONG 520 recorded 1.0 s after PX4's first HEARTBEAT).
 """
 
-import collections
-
 import rospy
 from mavros_msgs.msg import EstimatorStatus, ExtendedState, State
 from mavros_msgs.srv import SetMode, SetModeResponse
 
 from offboard_py import px4_modes
-from offboard_py.bridge import filters
+from offboard_py.bridge import diagnostics, filters
 from offboard_py.dialect import mavlink
 
 
@@ -36,6 +34,24 @@ ESTIMATOR_FLAGS = (('attitude_status_flag', mavlink.ESTIMATOR_ATTITUDE),
                    ('gps_glitch_status_flag', mavlink.ESTIMATOR_GPS_GLITCH),
                    ('accel_error_status_flag', mavlink.ESTIMATOR_ACCEL_ERROR))
 VERSION_REQUEST_AFTER_CONNECT_S = 1.0  # mavros's autopilot_version_timer period, started on connection
+# how many values mavros 1.21's string tables hold (enum_to_string.cpp): a value past them is shown as its number
+MAVROS_ENUM_STRINGS = {'MAV_TYPE': 43, 'MAV_AUTOPILOT': 21, 'MAV_STATE': 9}
+
+
+def enum_string(enum, value):
+    """mavros's utils::to_string for MAV_TYPE, MAV_AUTOPILOT and MAV_STATE: the description up to its
+    first ',', '-', '/' or '.' ("Quadrotor", "PX4 Autopilot"), for MAV_STATE the name's tail in title
+    case ("Standby"), the number past mavros's table."""
+    entry = mavlink.enums[enum].get(value)
+    if entry is None or value >= MAVROS_ENUM_STRINGS[enum]:
+        return str(value)
+    if enum == 'MAV_STATE':
+        return entry.name[len(enum) + 1:].title()
+    text = entry.description
+    for i, char in enumerate(text):
+        if char in ',-/.':
+            return text[:i].strip()
+    return text.strip()
 
 
 def custom_mode_from_string(text):
@@ -56,9 +72,11 @@ class SysStatus:
         self.timeout_s = bridge.cfg['conn/timeout']
         self.last_heartbeat_s = None
         self.base_mode = 0
-        self.heartbeats = 0
-        self.last_heartbeat = None
-        self.recent_s = collections.deque(maxlen=10)  # arrival times, for the frequency
+        # what mavros's HeartbeatStatus shows before a heartbeat: GENERIC, GENERIC, UNINIT, no mode
+        self.last_heartbeat = mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_GENERIC,
+                                                                0, 0, mavlink.MAV_STATE_UNINIT, 0)
+        self.last_mode = ''
+        self.heartbeat_events = diagnostics.EventWindow(bridge.monotonic_s, min_hz=0.2, max_hz=100.0)
         bridge.diagnostic('Heartbeat', self._heartbeat_status)
         self.state_pub = bridge.publisher('~state', State, latch=True)
         self.extended_pub = bridge.publisher('~extended_state', ExtendedState)
@@ -85,9 +103,8 @@ class SysStatus:
     def _on_heartbeat(self, hb):
         b = self.bridge
         self.last_heartbeat_s = b.monotonic_s()
-        self.heartbeats += 1
         self.last_heartbeat = hb
-        self.recent_s.append(self.last_heartbeat_s)
+        self.heartbeat_events.tick()
         self.base_mode = hb.base_mode
         msg = State()
         msg.header.stamp = b.now()
@@ -95,7 +112,7 @@ class SysStatus:
         msg.armed = bool(hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
         msg.guided = bool(hb.base_mode & mavlink.MAV_MODE_FLAG_GUIDED_ENABLED)
         msg.manual_input = bool(hb.base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED)
-        msg.mode = px4_modes.mode_string(hb.base_mode, hb.custom_mode)
+        msg.mode = self.last_mode = px4_modes.mode_string(hb.base_mode, hb.custom_mode)
         msg.system_status = hb.system_status
         if not b.connected:
             rospy.loginfo('CON: Got HEARTBEAT, connected. FCU: PX4 Autopilot')
@@ -103,22 +120,15 @@ class SysStatus:
         self.state_pub.publish(msg)
 
     def _heartbeat_status(self):
+        """mavros's HeartbeatStatus: the target's heartbeats over the last ten periods (0.2-100 Hz)."""
+        level, message, frequency = self.heartbeat_events.run()
         hb = self.last_heartbeat
-        if hb is None:
-            return 2, 'No events recorded.', [('Heartbeats since startup', 0)]
-        recent = list(self.recent_s)
-        frequency = (len(recent) - 1) / (recent[-1] - recent[0]) if len(recent) > 1 and recent[-1] > recent[0] else 0.0
-        values = [('Heartbeats since startup', self.heartbeats), ('Frequency (Hz)', '%.6f' % frequency),
-                  ('Vehicle type', mavlink.enums['MAV_TYPE'][hb.type].name if hb.type in mavlink.enums['MAV_TYPE']
-                   else hb.type),
-                  ('Autopilot type', mavlink.enums['MAV_AUTOPILOT'][hb.autopilot].name
-                   if hb.autopilot in mavlink.enums['MAV_AUTOPILOT'] else hb.autopilot),
-                  ('Mode', px4_modes.mode_string(hb.base_mode, hb.custom_mode)),
-                  ('System status', mavlink.enums['MAV_STATE'][hb.system_status].name
-                   if hb.system_status in mavlink.enums['MAV_STATE'] else hb.system_status)]
-        if not self.bridge.connected:
-            return 2, 'No events recorded.', values
-        return 0, 'Normal', values
+        return level, message, [('Heartbeats since startup', self.heartbeat_events.count),
+                                ('Frequency (Hz)', '%f' % frequency),
+                                ('Vehicle type', enum_string('MAV_TYPE', hb.type)),
+                                ('Autopilot type', enum_string('MAV_AUTOPILOT', hb.autopilot)),
+                                ('Mode', self.last_mode),
+                                ('System status', enum_string('MAV_STATE', hb.system_status))]
 
     def _check_timeout(self, now_s):
         if self.bridge.connected and now_s - self.last_heartbeat_s > self.timeout_s:

@@ -30,6 +30,8 @@ import math
 from mavros_msgs.msg import TimesyncStatus
 from sensor_msgs.msg import TimeReference
 
+from offboard_py.bridge import diagnostics
+
 log = logging.getLogger(__name__)
 
 MODES = ('MAVLINK', 'NONE', 'PASSTHROUGH')
@@ -49,6 +51,7 @@ class TimesyncFilter:
         self.max_rtt_ns, self.max_deviation_ns = max_rtt_ms * 1e6, max_deviation_ms * 1e6
         self.max_high_rtt, self.max_high_deviation = max_high_rtt, max_high_deviation
         self.applied_ns = 0  # the offset stamps use (mavros's UAS time offset): set by accepted samples only
+        self.jumps = 0  # resets after a run of samples far from the estimate
         self.reset()
 
     def reset(self):
@@ -80,6 +83,7 @@ class TimesyncFilter:
             self.high_deviation += 1
             if self.high_deviation > self.max_high_deviation:
                 self.reset()
+                self.jumps += 1
                 return 'TM : Time jump detected. Resetting time synchroniser.'
             return None
         if self.converged:
@@ -113,12 +117,14 @@ class SysTime:
         self.status_pub = bridge.publisher('~timesync_status', TimesyncStatus)
         bridge.on('SYSTEM_TIME', self._on_system_time)
         bridge.on('TIMESYNC', self._on_timesync)
-        self.answers, self.last_rtt_ns, self.rtt_sum_ns = 0, None, 0
-        bridge.diagnostic('Time Sync', self._status)
+        # mavros's TimeSyncStatus: every answer to one of our requests, kept or not
+        self.events = diagnostics.EventWindow(bridge.monotonic_s, min_hz=0.01, max_hz=10.0)
+        self.last_rtt_ns = self.rtt_sum_ns = self.last_remote_ns = 0
         rate = cfg['conn/timesync_rate']
         self.request_task = None
-        if self.mode == 'MAVLINK' and rate > 0.0:
+        if self.mode == 'MAVLINK' and rate > 0.0:  # as mavros: the status only while it syncs
             self.request_task = bridge.every(1.0 / rate, self._request)
+            bridge.diagnostic('Time Sync', self._status)
         system_time_rate = cfg['conn/system_time_rate']
         if system_time_rate > 0.0:
             bridge.every(1.0 / system_time_rate, self._send_system_time)
@@ -155,12 +161,16 @@ class SysTime:
         elif msg.tc1 > 0 and self.mode == 'MAVLINK':
             offset = (msg.ts1 + now_ns - 2 * msg.tc1) // 2
             rtt = now_ns - msg.ts1
-            if 0 <= rtt:
-                self.answers, self.last_rtt_ns = self.answers + 1, rtt
-                self.rtt_sum_ns += rtt
+            jumps = self.filter.jumps
             warning = self.filter.observe(offset, rtt)
             if warning:
                 log.warning('%s', warning)
+            if self.filter.jumps != jumps:  # mavros clears the status with the filter
+                self.events.clear()
+                self.rtt_sum_ns = 0
+            self.events.tick()
+            self.last_rtt_ns, self.last_remote_ns = rtt, msg.tc1
+            self.rtt_sum_ns += rtt
             if self.status_pub.get_num_connections():
                 status = TimesyncStatus(remote_timestamp_ns=msg.tc1, observed_offset_ns=offset,
                                         estimated_offset_ns=int(self.filter.estimate_ns),
@@ -169,16 +179,15 @@ class SysTime:
                 self.status_pub.publish(status)
 
     def _status(self):
-        f = self.filter
-        values = [('Timesyncs since startup', self.answers), ('Filter samples', f.sequence),
-                  ('Last RTT (ms)', '%.6f' % (self.last_rtt_ns / 1e6) if self.last_rtt_ns is not None else 'none'),
-                  ('Mean RTT (ms)', '%.6f' % (self.rtt_sum_ns / self.answers / 1e6) if self.answers else 'none'),
-                  ('Estimated time offset (s)', '%.9f' % (f.estimate_ns / 1e9))]
-        if self.mode != 'MAVLINK':
-            return 0, 'timesync mode %s' % self.mode, values
-        if not self.answers:
-            return 2, 'No events recorded.', values
-        return (0, 'Normal', values) if f.converged else (1, 'Converging', values)
+        """mavros's TimeSyncStatus: the answers over the last ten periods (0.01-10 Hz), the round
+        trips (the last, the mean of all since the start or the last reset), the estimate."""
+        level, message, frequency = self.events.run()
+        count = self.events.count
+        return level, message, [('Timesyncs since startup', count), ('Frequency (Hz)', '%f' % frequency),
+                                ('Last RTT (ms)', '%0.6f' % (self.last_rtt_ns / 1e6)),
+                                ('Mean RTT (ms)', '%0.6f' % (self.rtt_sum_ns / count / 1e6 if count else 0.0)),
+                                ('Last remote time (s)', '%0.9f' % (self.last_remote_ns / 1e9)),
+                                ('Estimated time offset (s)', '%0.9f' % (int(self.filter.estimate_ns) / 1e9))]
 
     def _on_system_time(self, msg):
         if msg.time_unix_usec <= UNIX_VALID_AFTER_US or not self.time_ref_pub.get_num_connections():
