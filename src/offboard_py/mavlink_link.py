@@ -216,6 +216,10 @@ class MavlinkLink:
     def system_id(self):
         return self.mav.srcSystem
 
+    def last_seq(self, source):
+        """The sequence number of the last frame from (system, component), 0 before any."""
+        return self._last_seq.get(source, 0)
+
     def fileno(self):
         return self.sock.fileno()
 

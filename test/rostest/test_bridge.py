@@ -2,11 +2,14 @@
 """The bridge's mavros API: names, types and semantics, against the simulated PX4 and a silent FCU."""
 
 import math
+import os
 import threading
 import time
 
+import rospkg
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, Quaternion, Twist, TwistStamped
 from mavros_msgs.msg import (Altitude, AttitudeTarget, EstimatorStatus, GlobalPositionTarget, HomePosition, Mavlink,
                              PositionTarget, StatusText, Thrust, TimesyncStatus, VFR_HUD, Waypoint, WaypointList)
@@ -49,6 +52,20 @@ class SilentFcu(MavlinkListener):
                                                     hold_disarmed, px4_modes.encode('AUTO.LOITER'),
                                                     mavlink.MAV_STATE_STANDBY))
             time.sleep(0.5)
+
+
+def read_diagnostics_echo(text):
+    """[(name, level, message, [keys])] from `rostopic echo` of a DiagnosticArray."""
+    statuses = []
+    for line in text.splitlines():
+        field, _, value = line.strip().partition(': ')
+        if field == 'level':
+            statuses.append([None, int(value), None, []])
+        elif field in ('name', 'message') and statuses:
+            statuses[-1][0 if field == 'name' else 2] = value.strip('"')
+        elif field == 'key' and statuses:
+            statuses[-1][3].append(value.strip('"'))
+    return [tuple(status) for status in statuses]
 
 
 class BridgeTest(OffboardTestCase):
@@ -475,6 +492,24 @@ class BridgeTest(OffboardTestCase):
             low = rate * 0.8 if rate >= 1 else 0.2  # BATTERY_STATUS: 4 in 8 s, allow for the window's edges
             self.assertGreaterEqual(rates[topic], low, '%s: %.1f Hz, the FCU sends at %g Hz' % (topic, rates[topic], rate))
             self.assertLessEqual(rates[topic], rate * 1.2 + 0.2, '%s: %.1f Hz' % (topic, rates[topic]))
+
+    def test_09e_diagnostics_as_real_mavros_gives_them(self):
+        """/diagnostics against real mavros 1.21's, recorded on the same simulated vehicle in flight
+        (reference/mavros-1.21-diagnostics.txt): the statuses in its order, each with its level, its
+        message and its keys in their order (the System status's 'Logging' only while the logger runs)."""
+        self.wait_for_connected(self.sim, 15.0)
+        path = os.path.join(rospkg.RosPack().get_path('offboard_py'), 'reference', 'mavros-1.21-diagnostics.txt')
+        real = read_diagnostics_echo(open(path).read())
+        time.sleep(3.0)  # a BATTERY_STATUS (0.5 Hz) and the events of some periods
+        ours = rospy.wait_for_message('/diagnostics', DiagnosticArray, 5.0)
+        got = [(s.name, s.level, s.message, [kv.key for kv in s.values]) for s in ours.status]
+        self.assertEqual([g[0] for g in got], [r[0] for r in real], 'the statuses and their order')
+
+        def steady(status):  # the logger's line comes and goes with it (PX4 stops it after a disarm)
+            return status[:3] + ([key for key in status[3] if key != 'Logging'],)
+        for mine, theirs in zip(map(steady, got), map(steady, real)):
+            self.assertEqual(mine, theirs, 'status %s: ours (name, level, message, keys), then real mavros\'s'
+                             % mine[0])
 
     def test_10_disconnected_after_timeout(self):
         self.wait_for_connected(self.silent, 10.0)

@@ -19,6 +19,13 @@ def test_defaults_are_px4_sitl():
     assert cfg['signing'] is None and cfg['signing/required'] is True
 
 
+@pytest.mark.parametrize('given, used', [(None, 10.0), ([16.2, 16.0], 16.2), (16.2, 10.0), ([], 10.0)])
+def test_min_voltage_is_read_as_mavros_reads_it(given, used):
+    """mavros reads sys/min_voltage as a list (a battery each); px4_config.yaml's single 10.0 is not one,
+    so mavros keeps its default, also 10 V."""
+    assert config(**({} if given is None else {'sys__min_voltage': given}))['sys/min_voltage'] == used
+
+
 def test_signing_key_file_is_read(tmp_path):
     key = tmp_path / 'key.bin'
     key.write_bytes(bytes(range(1, 33)))
@@ -39,6 +46,8 @@ def test_signing_key_file_is_read(tmp_path):
     ({'conn__timesync_rate': -1.0}, '~conn/timesync_rate'),
     ({'time__convergence_window': 0}, '~time/convergence_window'),
     ({'time__timesync_alpha_final': 2.0}, '~time/timesync_alpha_final'),
+    ({'sys__min_voltage': ['ten']}, '~sys/min_voltage'),
+    ({'sys__disable_diag': 1}, '~sys/disable_diag'),
 ])
 def test_bad_parameters_are_named(params, words):
     with pytest.raises(ConfigError) as err:

@@ -845,6 +845,42 @@ def test_battery_from_sys_status_until_battery_status_arrives():
     assert len(rig.published('~battery')) == count, 'BATTERY_STATUS wins over SYS_STATUS'
 
 
+def test_system_and_battery_statuses_as_mavros():
+    """mavros's System status from PX4 SITL's recorded SYS_STATUS (reference/px4-sitl-measured.md: present
+    0x0300402F, enabled 0x0301402F, health 0x1320C83F: the RC receiver enabled and not healthy, so
+    'Sensor health' at ERROR, as real mavros shows it), and its Battery status: 'No data' before any,
+    under sys/min_voltage (10 V) 'Low voltage', each cell once there are several."""
+    from offboard_py.bridge import battery, diagnostics
+
+    def statuses(rig, at_s):
+        rig.tick(at_s)
+        return {s.name: (s.level, s.message, [(kv.key, kv.value) for kv in s.values])
+                for s in rig.published('/diagnostics')[-1].status}
+    rig = Rig(sys_status.SysStatus, battery.Battery, diagnostics.Diagnostics)
+    start_s = rig.clock.now_s
+    first = statuses(rig, start_s + 1.0)
+    assert first['mavros: System'][:2] == (0, 'Normal') and first['mavros: Battery'][:2] == (2, 'No data')
+    assert first['mavros: Battery'][2] == [('Voltage', '-1.00'), ('Current', '0.0'), ('Remaining', '0.0')]
+    rig.fcu.send(BUILD.sys_status_encode(0x0300402F, 0x0301402F, 0x1320C83F, 137, 9800, -100, 40, 0, 0, 0, 0, 0, 0))
+    now = statuses(rig, start_s + 2.5)
+    level, message, values = now['mavros: System']
+    assert (level, message) == (2, 'Sensor health')
+    assert values[:3] == [('Sensor present', '0x0300402F'), ('Sensor enabled', '0x0301402F'),
+                          ('Sensor health', '0x1320C83F')]
+    assert values[3:12] == [('3D gyro', 'Ok'), ('3D accelerometer', 'Ok'), ('3D magnetometer', 'Ok'),
+                            ('absolute pressure', 'Ok'), ('GPS', 'Ok'), ('x/y position control', 'Ok'),
+                            ('RC receiver', 'Fail'), ('Logging', 'Ok'), ('Battery', 'Ok')]
+    assert values[12:15] == [('CPU Load (%)', '13.7'), ('Drop rate (%)', '0.0'), ('Errors comm', '0')]
+    assert now['mavros: Battery'][:2] == (1, 'Low voltage'), '9.8 V, under mavros\'s 10 V'
+    cells = [4050] * 4 + [0xFFFF] * 6
+    rig.fcu.send(BUILD.battery_status_encode(0, 1, 1, 2500, cells, 500, 0, 0, 90))
+    level, message, values = statuses(rig, start_s + 4.0)['mavros: Battery']
+    assert (level, message) == (0, 'Normal')
+    assert values[3:] == [('Cell %d' % i, '4.05') for i in range(1, 5)]
+    assert 'mavros: System' not in statuses(Rig(sys_status.SysStatus, diagnostics.Diagnostics,
+                                                 sys__disable_diag=True), start_s + 1.0)
+
+
 def test_cmd_vel_goes_out_as_velocity_and_yaw_rate_and_target_local_comes_back_enu():
     from geometry_msgs.msg import Twist
     rig = Rig(setpoint.Setpoint)
@@ -870,9 +906,15 @@ def test_diagnostics_say_what_mavros_says():
     rig.tick(rig.clock.now_s + 1.0)
     [array] = rig.published('/diagnostics')
     by_name = {s.name: s for s in array.status}
-    assert set(by_name) == {'mavros: FCU connection', 'mavros: Heartbeat', 'mavros: GPS'}
+    # in real mavros 1.21's order (its plugins' load order)
+    assert [s.name for s in array.status] == ['mavros: FCU connection', 'mavros: GPS', 'mavros: Heartbeat',
+                                              'mavros: System']
     assert (by_name['mavros: GPS'].level, by_name['mavros: GPS'].message) == (2, 'No satellites')
-    assert by_name['mavros: FCU connection'].message == 'not connected'
+    fcu_link = by_name['mavros: FCU connection']
+    assert (fcu_link.level, fcu_link.message) == (1, 'not connected'), 'mavros: warn while the link is open'
+    assert [kv.key for kv in fcu_link.values] == [
+        'Received packets:', 'Dropped packets:', 'Buffer overruns:', 'Parse errors:', 'Rx sequence number:',
+        'Tx sequence number:', 'Rx total bytes:', 'Tx total bytes:', 'Rx speed:', 'Tx speed:']
     rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED))
     rig.fcu.send(BUILD.gps_raw_int_encode(1000000, 3, 473977420, 85455940, 488000, 70, 110, 0, 0, 10))
     rig.tick(rig.clock.now_s + 2.0)
@@ -887,6 +929,30 @@ def test_diagnostics_say_what_mavros_says():
                                           'Autopilot type', 'Mode', 'System status']
     assert [value for key, value in values if key != 'Frequency (Hz)'] == [
         '1', 'Quadrotor', 'PX4 Autopilot', 'AUTO.LOITER', 'Standby']
+
+
+def test_fcu_connection_status_counts_drops_and_speeds_as_mavconn():
+    """mavconn's speeds: the bytes since the last status over its whole seconds; mavros's summary
+    names the packets dropped since the last status."""
+    from offboard_py.bridge import diagnostics
+    rig = Rig(diagnostics.Diagnostics)
+    stats = rig.link.stats
+
+    def fcu_link(at_s):
+        rig.tick(at_s)
+        status = {s.name: s for s in rig.published('/diagnostics')[-1].status}['mavros: FCU connection']
+        return status.level, status.message, {kv.key: kv.value for kv in status.values}
+    start_s = rig.clock.now_s
+    stats['bytes_received'], stats['bytes_sent'] = 4000, 300
+    level, message, values = fcu_link(start_s + 1.0)
+    assert (values['Rx speed:'], values['Tx speed:']) == ('4000.000000', '300.000000')
+    stats['bytes_received'] += 6000
+    stats['dropped'] += 3
+    level, message, values = fcu_link(start_s + 2.5)
+    assert values['Rx speed:'] == '6000.000000', 'mavconn divides by whole seconds: 1.5 s is 1'
+    assert (level, message, values['Dropped packets:']) == (1, '3 packeges dropped since last report', '3')
+    rig.bridge.connected = True
+    assert fcu_link(start_s + 3.5)[:2] == (0, 'connected')
 
 
 def test_heartbeat_status_counts_the_last_ten_periods_as_mavros():

@@ -39,17 +39,24 @@ class Battery:
         self.bridge = bridge
         self.has_battery_status = False
         self.last = None  # (voltage V, current A, remaining 0..1) of the latest message
-        bridge.diagnostic('Battery', self._status)
+        self.cells = []
+        self.min_voltage = bridge.cfg['sys/min_voltage']
+        if not bridge.cfg['sys/disable_diag']:
+            bridge.diagnostic('Battery', self._status)
         self.pub = bridge.publisher('~battery', BatteryState)
         bridge.on('SYS_STATUS', self._on_sys_status)
         bridge.on('BATTERY_STATUS', self._on_battery_status)
 
     def _status(self):
-        if self.last is None:
-            return 2, 'No data', []
-        voltage, current, remaining = self.last
+        """mavros's BatteryStatusDiag: 'No data' before any (voltage -1), 'Low voltage' under
+        sys/min_voltage, the cells when there are several."""
+        voltage, current, remaining = self.last if self.last is not None else (-1.0, 0.0, 0.0)
         values = [('Voltage', '%.2f' % voltage), ('Current', '%.1f' % current), ('Remaining', '%.1f' % (remaining * 100))]
-        return (1, 'Low voltage', values) if remaining == remaining and remaining < 0.15 else (0, 'Normal', values)
+        if len(self.cells) > 1:
+            values += [('Cell %d' % i, '%.2f' % cell) for i, cell in enumerate(self.cells, 1)]
+        if voltage < 0.0:
+            return 2, 'No data', values
+        return (1, 'Low voltage', values) if voltage < self.min_voltage else (0, 'Normal', values)
 
     def _on_sys_status(self, status):
         if self.has_battery_status:
@@ -66,7 +73,7 @@ class Battery:
         self.has_battery_status = True
         cells = [v / 1000.0 for v in bs.voltages if v != UINT16_UNKNOWN]
         msg = _battery(self.bridge.now(), sum(cells) if cells else math.nan, bs.current_battery, bs.battery_remaining)
-        msg.cell_voltage = cells
+        msg.cell_voltage = self.cells = cells
         msg.power_supply_technology = TECHNOLOGY.get(bs.type, BatteryState.POWER_SUPPLY_TECHNOLOGY_UNKNOWN)
         msg.location = 'id%d' % bs.id
         self.last = (msg.voltage, msg.current, msg.percentage)

@@ -55,7 +55,12 @@ def read_config(get):
             raise ConfigError('parameter ~%s: %s' % (name, err))
     if cfg['fcu'] is None:
         raise ConfigError('parameter ~fcu_url: empty')
-    for name, default in (('local_position/tf/send', False), ('global_position/use_relative_alt', True)):
+    # mavros reads a list (a battery each, first only here); a single number is not a list to it: 10 V
+    min_voltage = get('sys/min_voltage', [10.0])
+    cfg['sys/min_voltage'] = (float(_number('sys/min_voltage', min_voltage[0], 0.0, 1000.0))
+                              if isinstance(min_voltage, list) and min_voltage else 10.0)
+    for name, default in (('local_position/tf/send', False), ('global_position/use_relative_alt', True),
+                          ('sys/disable_diag', False)):
         value = get(name, default)
         if not isinstance(value, bool):
             raise ConfigError('parameter ~%s: expected true or false, got %r' % (name, value))

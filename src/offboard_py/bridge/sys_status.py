@@ -16,7 +16,7 @@ import rospy
 from mavros_msgs.msg import EstimatorStatus, ExtendedState, State
 from mavros_msgs.srv import SetMode, SetModeResponse
 
-from offboard_py import px4_modes
+from offboard_py import px4_modes, wire
 from offboard_py.bridge import diagnostics, filters
 from offboard_py.dialect import mavlink
 
@@ -54,6 +54,30 @@ def enum_string(enum, value):
     return text.strip()
 
 
+# SYS_STATUS's sensor bits as mavros 1.21 names them in its "System" status (the MAVLink descriptions, generated
+# up to PROPULSION): (bit, name), in the bits' order
+SENSOR_NAMES = tuple((bit, entry.description.split(' ', 1)[1].strip() if entry.description.startswith('0x')
+                      else entry.description.strip())
+                     for bit, entry in sorted(mavlink.enums['MAV_SYS_STATUS_SENSOR'].items())
+                     if bit <= mavlink.MAV_SYS_STATUS_SENSOR_PROPULSION)
+
+
+def system_status(st):
+    """mavros's SystemStatusDiag for a SYS_STATUS (None: none yet, all zero as mavros starts)."""
+    present, enabled, health = ((st.onboard_control_sensors_present, st.onboard_control_sensors_enabled,
+                                 st.onboard_control_sensors_health) if st else (0, 0, 0))
+    level, message = (2, 'Sensor health') if health & enabled != enabled else (0, 'Normal')
+    values = [('Sensor present', '0x%08X' % present), ('Sensor enabled', '0x%08X' % enabled),
+              ('Sensor health', '0x%08X' % health)]
+    values += [(name, 'Ok' if health & bit else 'Fail') for bit, name in SENSOR_NAMES if enabled & bit]
+    fields = (st.load, st.drop_rate_comm, st.errors_comm, st.errors_count1, st.errors_count2, st.errors_count3,
+              st.errors_count4) if st else (0,) * 7
+    values += [('CPU Load (%)', '%.1f' % (fields[0] / 10.0)), ('Drop rate (%)', '%.1f' % (fields[1] / 10.0)),
+               ('Errors comm', '%d' % fields[2])]
+    values += [('Errors count #%d' % i, '%d' % count) for i, count in enumerate(fields[3:], 1)]
+    return level, message, values
+
+
 def custom_mode_from_string(text):
     """The custom_mode value for a SetMode request string, or None when unknown."""
     name = text.strip().upper()
@@ -78,6 +102,10 @@ class SysStatus:
         self.last_mode = ''
         self.heartbeat_events = diagnostics.EventWindow(bridge.monotonic_s, min_hz=0.2, max_hz=100.0)
         bridge.diagnostic('Heartbeat', self._heartbeat_status)
+        self.sys_status_frame = None  # the latest SYS_STATUS, decoded for the System status only
+        if not bridge.cfg['sys/disable_diag']:
+            bridge.on_raw('SYS_STATUS', self._keep_sys_status)
+            bridge.diagnostic('System', self._system_status)
         self.state_pub = bridge.publisher('~state', State, latch=True)
         self.extended_pub = bridge.publisher('~extended_state', ExtendedState)
         self.estimator_pub = bridge.publisher('~estimator_status', EstimatorStatus)
@@ -129,6 +157,14 @@ class SysStatus:
                                 ('Autopilot type', enum_string('MAV_AUTOPILOT', hb.autopilot)),
                                 ('Mode', self.last_mode),
                                 ('System status', enum_string('MAV_STATE', hb.system_status))]
+
+    def _keep_sys_status(self, frame):
+        if frame[6 if frame[0] == wire.MAGIC_V2 else 4] != mavlink.MAV_COMP_ID_GIMBAL:  # mavros skips a gimbal's
+            self.sys_status_frame = frame
+
+    def _system_status(self):
+        frame = self.sys_status_frame
+        return system_status(wire.decode_checked(frame) if frame is not None else None)
 
     def _check_timeout(self, now_s):
         if self.bridge.connected and now_s - self.last_heartbeat_s > self.timeout_s:
