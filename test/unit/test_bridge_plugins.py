@@ -48,7 +48,8 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
         '~geofence/waypoints', '~rallypoint/waypoints',
         '~setpoint_raw/target_local', '~setpoint_raw/target_attitude', '~statustext/recv', '~vfr_hud', '~rc/in',
-        '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics', '/tf', '/tf_static'}
+        '~rc/out', '~sys_status', '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics', '/tf',
+        '/tf_static'}
     assert {name for name, pub in topics.items() if pub.latch} == {
         '~state', '~home_position/home', '~mission/waypoints', '~geofence/waypoints', '~rallypoint/waypoints',
         '/tf_static'}
@@ -1068,6 +1069,27 @@ def test_statustext_both_ways_vfr_hud_rc_in_and_estimator_status():
     rig.fcu.send(BUILD.estimator_status_encode(0, 1023, 0, 0, 0, 0, 0, 0, 0, 0))
     est = rig.published('~estimator_status')[-1]
     assert est.attitude_status_flag and est.const_pos_mode_status_flag and not est.gps_glitch_status_flag
+
+
+def test_rc_out_and_sys_status_as_mavros():
+    """~rc/out as mavros 1.21's rc_io: 16 outputs a port (MAVLink 2), every port seen so far, stamped with
+    the FCU's time (ROS time now until the clock offset is known); ~sys_status: SYS_STATUS as it is."""
+    from offboard_py.bridge import rc_io
+    rig = Rig(rc_io.RcIo, sys_status.SysStatus)
+    rig.fcu.send(BUILD.servo_output_raw_encode(5000000, 0, 1500, 1510, 1520, 1530, 900, 900, 900, 900))
+    out = rig.published('~rc/out')[-1]
+    assert list(out.channels) == [1500, 1510, 1520, 1530] + [900] * 4 + [0] * 8
+    rig.fcu.send(BUILD.servo_output_raw_encode(5100000, 1, *[1000 + i for i in range(8)], *[2000] * 8))
+    out = rig.published('~rc/out')[-1]
+    assert list(out.channels) == [1500, 1510, 1520, 1530] + [900] * 4 + [0] * 8 + [1000 + i for i in range(8)] + \
+        [2000] * 8, 'port 1 after port 0'
+    rig.bridge.set_connected(True)
+    rig.fcu.send(BUILD.servo_output_raw_encode(5200000, 1, *[1100] * 16))
+    assert list(rig.published('~rc/out')[-1].channels) == [0] * 16 + [1100] * 16, 'a new connection forgets port 0'
+    rig.fcu.send(BUILD.sys_status_encode(0x0300402F, 0x0301402F, 0x1320C83F, 137, 16200, -100, 100, 0, 0, 0, 0, 0, 0))
+    st = rig.published('~sys_status')[-1]
+    assert (st.sensors_present, st.sensors_enabled, st.sensors_health) == (0x0300402F, 0x0301402F, 0x1320C83F)
+    assert (st.load, st.voltage_battery, st.current_battery, st.battery_remaining) == (137, 16200, -100, 100)
 
 
 def test_attitude_setpoints_go_out_in_ned_and_targets_come_back_enu():

@@ -1,7 +1,12 @@
 """mavros rc_io: ~rc/in (mavros_msgs/RCIn) from RC_CHANNELS: the first chancount channels (us)
-and the RSSI. PX4 sends RC_CHANNELS only with an RC link (`sim_px4.py --rc`)."""
+and the RSSI. PX4 sends RC_CHANNELS only with an RC link (`sim_px4.py --rc`).
+~rc/out (mavros_msgs/RCOut) from SERVO_OUTPUT_RAW (PX4: 10 Hz), as mavros 1.21's rc_io: the
+outputs of every port seen so far, 16 a port (8 from a MAVLink 1 frame) at port x 16, stamped
+with the message's FCU time; forgotten when the connection changes."""
 
-from mavros_msgs.msg import RCIn
+from mavros_msgs.msg import RCIn, RCOut
+
+from offboard_py import wire
 
 
 class RcIo:
@@ -9,6 +14,29 @@ class RcIo:
         self.bridge = bridge
         self.pub = bridge.publisher('~rc/in', RCIn)
         bridge.on('RC_CHANNELS', self._on_rc_channels)
+        self.out_pub = bridge.publisher('~rc/out', RCOut)
+        self.port_frames = {}  # port -> its latest SERVO_OUTPUT_RAW frame, kept as mavros keeps raw_rc_out
+        bridge.on_raw('SERVO_OUTPUT_RAW', self._on_servo_output_raw)
+        bridge.on_connection(lambda _connected: self.port_frames.clear())
+
+    def _on_servo_output_raw(self, frame):
+        v2 = frame[0] == wire.MAGIC_V2
+        payload = frame[10:10 + frame[1]] if v2 else frame[6:6 + frame[1]]
+        port = payload[20] if len(payload) > 20 else 0  # after time_usec and servo1..8; MAVLink 2 trims zeros
+        self.port_frames[port] = frame
+        if not self.out_pub.get_num_connections():
+            return
+        outputs, this = [], None
+        for each, kept in sorted(self.port_frames.items()):
+            count = 16 if kept[0] == wire.MAGIC_V2 else 8
+            out = wire.decode_checked(kept)
+            if kept is frame:
+                this = out
+            outputs += [0] * max(0, (each + 1) * count - len(outputs))
+            outputs[each * count:(each + 1) * count] = [getattr(out, 'servo%d_raw' % (i + 1)) for i in range(count)]
+        msg = RCOut(channels=outputs)
+        msg.header.stamp = self.bridge.fcu_stamp_us(this.time_usec)
+        self.out_pub.publish(msg)
 
     def _on_rc_channels(self, rc):
         if not self.pub.get_num_connections():

@@ -1,4 +1,4 @@
-"""mavros sys_status: ~state (latched), ~extended_state, ~set_mode, our HEARTBEAT, the connection.
+"""mavros sys_status: ~state (latched), ~extended_state, ~sys_status, ~set_mode, our HEARTBEAT, the connection.
 
 - Every HEARTBEAT from the target system and component restarts the `conn/timeout` timer
   and publishes State (connected, armed/guided/manual_input from base_mode, the PX4 mode
@@ -8,12 +8,13 @@
 - Our own HEARTBEAT at conn/heartbeat_rate, as mavros's: ONBOARD_CONTROLLER, autopilot INVALID,
   base_mode MAV_MODE_MANUAL_ARMED (192), system_status ACTIVE (reference/px4-sitl-measured.md,
   "Recorded conversations": real mavros's HEARTBEAT carries base_mode 192).
+- ~sys_status (mavros_msgs/SysStatus): each SYS_STATUS as it is (not a gimbal's), stamped on arrival.
 - AUTOPILOT_VERSION is asked for 1 s after the connection, as mavros's version timer does
   (COMMAND_LONG 520 recorded 1.0 s after PX4's first HEARTBEAT).
 """
 
 import rospy
-from mavros_msgs.msg import EstimatorStatus, ExtendedState, State
+from mavros_msgs.msg import EstimatorStatus, ExtendedState, State, SysStatus as SysStatusMsg
 from mavros_msgs.srv import SetMode, SetModeResponse
 
 from offboard_py import px4_modes, wire
@@ -102,9 +103,10 @@ class SysStatus:
         self.last_mode = ''
         self.heartbeat_events = diagnostics.EventWindow(bridge.monotonic_s, min_hz=0.2, max_hz=100.0)
         bridge.diagnostic('Heartbeat', self._heartbeat_status)
-        self.sys_status_frame = None  # the latest SYS_STATUS, decoded for the System status only
+        self.sys_status_frame = None  # the latest SYS_STATUS, decoded for ~sys_status and the System status
+        self.sys_status_pub = bridge.publisher('~sys_status', SysStatusMsg)
+        bridge.on_raw('SYS_STATUS', self._keep_sys_status)
         if not bridge.cfg['sys/disable_diag']:
-            bridge.on_raw('SYS_STATUS', self._keep_sys_status)
             bridge.diagnostic('System', self._system_status)
         self.state_pub = bridge.publisher('~state', State, latch=True)
         self.extended_pub = bridge.publisher('~extended_state', ExtendedState)
@@ -159,8 +161,21 @@ class SysStatus:
                                 ('System status', enum_string('MAV_STATE', hb.system_status))]
 
     def _keep_sys_status(self, frame):
-        if frame[6 if frame[0] == wire.MAGIC_V2 else 4] != mavlink.MAV_COMP_ID_GIMBAL:  # mavros skips a gimbal's
-            self.sys_status_frame = frame
+        if frame[6 if frame[0] == wire.MAGIC_V2 else 4] == mavlink.MAV_COMP_ID_GIMBAL:  # mavros skips a gimbal's
+            return
+        self.sys_status_frame = frame
+        if self.sys_status_pub.get_num_connections():
+            st = wire.decode_checked(frame)
+            msg = SysStatusMsg(sensors_present=st.onboard_control_sensors_present,
+                               sensors_enabled=st.onboard_control_sensors_enabled,
+                               sensors_health=st.onboard_control_sensors_health, load=st.load,
+                               voltage_battery=st.voltage_battery, current_battery=st.current_battery,
+                               battery_remaining=st.battery_remaining, drop_rate_comm=st.drop_rate_comm,
+                               errors_comm=st.errors_comm, errors_count1=st.errors_count1,
+                               errors_count2=st.errors_count2, errors_count3=st.errors_count3,
+                               errors_count4=st.errors_count4)
+            msg.header.stamp = self.bridge.now()
+            self.sys_status_pub.publish(msg)
 
     def _system_status(self):
         frame = self.sys_status_frame
