@@ -511,6 +511,30 @@ class BridgeTest(OffboardTestCase):
             self.assertEqual(mine, theirs, 'status %s: ours (name, level, message, keys), then real mavros\'s'
                              % mine[0])
 
+    def test_09f_every_topic_real_mavros_publishes(self):
+        """Every topic real mavros 1.21 published in flight on the same simulated vehicle
+        (reference/mavros-1.21-topics-in-flight.tsv) carries messages of its type from the bridge too;
+        raw/gps_vel only with a course over the ground, which this vehicle on the ground has not."""
+        self.wait_for_connected(self.sim, 15.0)
+        path = os.path.join(rospkg.RosPack().get_path('offboard_py'), 'reference', 'mavros-1.21-topics-in-flight.tsv')
+        rows = [line.rstrip('\n').split('\t') for line in open(path) if not line.startswith('#')][1:]
+        expected = {topic: msg_type for topic, msg_type, _ in rows if topic != '/mavros/global_position/raw/gps_vel'}
+        seen = {}
+
+        def record(topic):
+            return lambda msg: seen.setdefault(topic, msg._connection_header['type'])
+        subs = [rospy.Subscriber(topic, rospy.AnyMsg, record(topic)) for topic in expected]
+        deadline = time.monotonic() + 20.0
+        try:
+            while len(seen) < len(expected) and time.monotonic() < deadline:
+                time.sleep(0.1)
+        finally:
+            for sub in subs:
+                sub.unregister()
+        self.assertEqual(sorted(set(expected) - set(seen)), [], 'no message in 20 s on these topics real mavros '
+                         'publishes')
+        self.assertEqual(seen, expected, 'each topic\'s type as real mavros\'s')
+
     def test_10_disconnected_after_timeout(self):
         self.wait_for_connected(self.silent, 10.0)
         self.fcu.beating = False
