@@ -16,6 +16,7 @@ PERIOD_S = 1.0  # diagnostic_updater's period: a status at most this often
 CHECK_S = 0.5   # how often mavros's timer asks the updater: a status every 1.0 or 1.5 s (0.75 a second measured)
 # the order real mavros 1.21 gives them in (its plugins load alphabetically: global_position, sys_status, sys_time)
 ORDER = ('FCU connection', 'GPS', 'Heartbeat', 'System', 'Battery', 'Time Sync')
+_RANK = {name: i for i, name in enumerate(ORDER)}
 
 
 class EventWindow:
@@ -70,8 +71,7 @@ class Diagnostics:
             return
         self.next_s = now_s + PERIOD_S
         statuses = []
-        rank = {name: i for i, name in enumerate(ORDER)}
-        for name, status in sorted(self.bridge.diagnostics, key=lambda item: rank.get(item[0], len(ORDER))):
+        for name, status in sorted(self.bridge.diagnostics, key=lambda item: _RANK.get(item[0], len(ORDER))):
             try:
                 statuses.append((name, status()))
             except Exception:  # a plugin bug must not take the others' statuses down

@@ -20,22 +20,22 @@ class RcIo:
         bridge.on_connection(lambda _connected: self.port_frames.clear())
 
     def _on_servo_output_raw(self, frame):
-        v2 = frame[0] == wire.MAGIC_V2
-        payload = frame[10:10 + frame[1]] if v2 else frame[6:6 + frame[1]]
-        port = payload[20] if len(payload) > 20 else 0  # after time_usec and servo1..8; MAVLink 2 trims zeros
+        header = wire.HEADER_V2 if frame[0] == wire.MAGIC_V2 else wire.HEADER_V1
+        # the port byte follows time_usec and servo1..8; MAVLink 2 trims a payload's trailing zeros
+        port = frame[header + 20] if frame[1] > 20 else 0
         self.port_frames[port] = frame
         if not self.out_pub.get_num_connections():
             return
-        outputs, this = [], None
+        outputs = []
         for each, kept in sorted(self.port_frames.items()):
             count = 16 if kept[0] == wire.MAGIC_V2 else 8
             out = wire.decode_checked(kept)
-            if kept is frame:
-                this = out
             outputs += [0] * max(0, (each + 1) * count - len(outputs))
             outputs[each * count:(each + 1) * count] = [getattr(out, 'servo%d_raw' % (i + 1)) for i in range(count)]
+            if each == port:
+                stamp = self.bridge.fcu_stamp_us(out.time_usec)
         msg = RCOut(channels=outputs)
-        msg.header.stamp = self.bridge.fcu_stamp_us(this.time_usec)
+        msg.header.stamp = stamp
         self.out_pub.publish(msg)
 
     def _on_rc_channels(self, rc):

@@ -17,7 +17,7 @@ import rospy
 from mavros_msgs.msg import EstimatorStatus, ExtendedState, State, SysStatus as SysStatusMsg
 from mavros_msgs.srv import SetMode, SetModeResponse
 
-from offboard_py import px4_modes, wire
+from offboard_py import px4_modes
 from offboard_py.bridge import diagnostics, filters
 from offboard_py.dialect import mavlink
 
@@ -103,9 +103,9 @@ class SysStatus:
         self.last_mode = ''
         self.heartbeat_events = diagnostics.EventWindow(bridge.monotonic_s, min_hz=0.2, max_hz=100.0)
         bridge.diagnostic('Heartbeat', self._heartbeat_status)
-        self.sys_status_frame = None  # the latest SYS_STATUS, decoded for ~sys_status and the System status
+        self.last_sys_status = None  # for the System status
         self.sys_status_pub = bridge.publisher('~sys_status', SysStatusMsg)
-        bridge.on_raw('SYS_STATUS', self._keep_sys_status)
+        bridge.on('SYS_STATUS', self._on_sys_status)  # decoded once for this and the battery plugin
         if not bridge.cfg['sys/disable_diag']:
             bridge.diagnostic('System', self._system_status)
         self.state_pub = bridge.publisher('~state', State, latch=True)
@@ -160,12 +160,11 @@ class SysStatus:
                                 ('Mode', self.last_mode),
                                 ('System status', enum_string('MAV_STATE', hb.system_status))]
 
-    def _keep_sys_status(self, frame):
-        if frame[6 if frame[0] == wire.MAGIC_V2 else 4] == mavlink.MAV_COMP_ID_GIMBAL:  # mavros skips a gimbal's
+    def _on_sys_status(self, st):
+        if st.get_srcComponent() == mavlink.MAV_COMP_ID_GIMBAL:  # mavros skips a gimbal's
             return
-        self.sys_status_frame = frame
+        self.last_sys_status = st
         if self.sys_status_pub.get_num_connections():
-            st = wire.decode_checked(frame)
             msg = SysStatusMsg(sensors_present=st.onboard_control_sensors_present,
                                sensors_enabled=st.onboard_control_sensors_enabled,
                                sensors_health=st.onboard_control_sensors_health, load=st.load,
@@ -178,8 +177,7 @@ class SysStatus:
             self.sys_status_pub.publish(msg)
 
     def _system_status(self):
-        frame = self.sys_status_frame
-        return system_status(wire.decode_checked(frame) if frame is not None else None)
+        return system_status(self.last_sys_status)
 
     def _check_timeout(self, now_s):
         if self.bridge.connected and now_s - self.last_heartbeat_s > self.timeout_s:
