@@ -64,7 +64,7 @@ class Bridge:
         self.clock_offset = None  # sys_time's: stamp_ns(fcu_ns), read by fcu_stamp_*
         self.commands = None  # command's COMMAND_ACK waiter: expect(cmd) before sending a command itself
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
-        self._last_io = (clock(), 0, 0, 0)  # the FCU connection status's last time, bytes in and out, drops
+        self._last_io = (clock(), 0, 0)  # the FCU connection status's last time, bytes in and out
         # registered before any plugin's handler, so readers see this message's attitude
         self.on_raw('ATTITUDE_QUATERNION', self.attitude.update)
         self.plugins = [plugin(self) for plugin in plugins]
@@ -209,12 +209,14 @@ class Bridge:
     def _connection_status(self):
         """mavros's MavlinkDiag ("FCU connection"): its keys and summary, on the link's own counts
         (mavros's parser never counts a dropped packet and clears its parse errors at every byte, so it
-        shows 0 for both; the bridge shows what it counted). mavconn's speeds are the bytes since the
-        last status over the whole seconds since then (duration_cast<seconds>): inf under a second."""
+        shows 0 for both; the bridge shows what it counted). So mavros's "N packeges dropped since last
+        report" never comes: the summary is "connected", or "not connected" as a warning while the link is
+        open. mavconn's speeds are the bytes since the last status over the whole seconds since then
+        (duration_cast<seconds>): inf under a second."""
         stats, now_s = self.link.stats, self._clock()
         rx, tx = stats['bytes_received'], stats['bytes_sent']
-        last_s, last_rx, last_tx, last_dropped = self._last_io
-        self._last_io = (now_s, rx, tx, stats['dropped'])
+        last_s, last_rx, last_tx = self._last_io
+        self._last_io = (now_s, rx, tx)
         whole_s = float(int(now_s - last_s))
 
         def speed(count):
@@ -224,8 +226,6 @@ class Bridge:
                   ('Rx sequence number:', self.link.last_seq((self.target_system, self.target_component))),
                   ('Tx sequence number:', self.link.mav.seq), ('Rx total bytes:', rx), ('Tx total bytes:', tx),
                   ('Rx speed:', '%f' % speed(rx - last_rx)), ('Tx speed:', '%f' % speed(tx - last_tx))]
-        if stats['dropped'] > last_dropped:
-            return 1, '%d packeges dropped since last report' % (stats['dropped'] - last_dropped), values  # sic
         return (0, 'connected', values) if self.connected else (1, 'not connected', values)
 
     def on_connection(self, callback):
