@@ -61,7 +61,8 @@ ARM_DISARM_FORCE_MAGIC = 21196
 # and 8 simulated vehicles cost 8-14 % less CPU (2026-11-25, side by side, bench/results). MAVLink 1
 # and signed frames, and a pymavlink without its C CRC, keep pymavlink's own. test_wire holds the two
 # byte for byte on every message of the dialect.
-_HEADER_V2 = struct.Struct('<BBBBBBBHB')
+_HEADER_V2_AFTER_MAGIC = struct.Struct('<BBBBBBHB')  # len, incompat, compat, seq, sys, comp, msgid (3 bytes)
+_MAGIC_V2 = bytes((mavlink.PROTOCOL_MARKER_V2,))
 _CRC = struct.Struct('<H')
 _PYMAVLINK_PACK = mavlink.MAVLink_message._pack
 
@@ -69,17 +70,13 @@ _PYMAVLINK_PACK = mavlink.MAVLink_message._pack
 def _pack_v2(self, mav, crc_extra, payload, force_mavlink1=False):
     if force_mavlink1 or mav.signing.sign_outgoing:
         return _PYMAVLINK_PACK(self, mav, crc_extra, payload, force_mavlink1)
-    size = len(payload)
-    while size > 1 and payload[size - 1] == 0:  # MAVLink 2 drops the payload's trailing zeros
-        size -= 1
-    payload = self._payload = payload[:size]
-    header = self._header = mavlink.MAVLink_header(self._header.msgId, 0, 0, size, mav.seq, mav.srcSystem,
-                                                   mav.srcComponent)
-    msg_id = header.msgId
-    frame = _HEADER_V2.pack(mavlink.PROTOCOL_MARKER_V2, size, 0, 0, mav.seq, mav.srcSystem, mav.srcComponent,
-                            msg_id & 0xFFFF, msg_id >> 16) + payload
-    crc = self._crc = mavlink.mcrf4xx(_CRC_EXTRA_BYTES[crc_extra], mavlink.mcrf4xx(frame[1:], 0xFFFF))
-    frame += _CRC.pack(crc)
+    payload = self._payload = payload.rstrip(b'\0') or payload[:1]  # MAVLink 2 drops trailing zeros, not all
+    size, msg_id, seq, system, component = len(payload), self._header.msgId, mav.seq, mav.srcSystem, mav.srcComponent
+    self._header = mavlink.MAVLink_header(msg_id, 0, 0, size, seq, system, component)
+    # the CRC runs over the frame after its magic byte, then the message's CRC_EXTRA
+    checked = _HEADER_V2_AFTER_MAGIC.pack(size, 0, 0, seq, system, component, msg_id & 0xFFFF, msg_id >> 16) + payload
+    crc = self._crc = mavlink.mcrf4xx(checked + _CRC_EXTRA_BYTES[crc_extra], 0xFFFF)
+    frame = _MAGIC_V2 + checked + _CRC.pack(crc)
     self._msgbuf = bytearray(frame)
     return frame
 

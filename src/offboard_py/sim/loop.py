@@ -24,13 +24,15 @@ def run_together(sims, duration_s=None):
     if any(sim.clock is not clock or sim.rate_hz != first.rate_hz or sim.steps_per_wakeup != batch for sim in sims):
         raise ValueError('simulated PX4s run together share one clock, rate and steps per wake-up')
     speed = getattr(clock, 'speed', 1.0)
-    poller = select.poll()
+    # epoll: a fleet's process asks for its 2 sockets a vehicle at every wake-up and after every vehicle's
+    # burst, and poll() looks at all of them each time (64 for 32 vehicles) where epoll hands over the ready
+    poller = select.epoll()
     by_fd = {}
     for sim in sims:
         sim.running = True
         for link in sim.links:
             by_fd[link.fileno()] = link
-            poller.register(link.fileno(), select.POLLIN)
+            poller.register(link.fileno(), select.EPOLLIN)
         for link, kind in zip(sim.links, ('onboard', 'GCS')):
             log.info('simulated PX4 sysid %d, %s link on udp %s:%d -> %s:%d', sim.system_id, kind, link.bind[0],
                      link.bind[1], *link.remote)
@@ -38,40 +40,43 @@ def run_together(sims, duration_s=None):
         log.info('simulated time at %gx real time', speed)
     next_s = clock()  # the schedule's time of the next step
     end_s = None if duration_s is None else next_s + duration_s
-    while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):
-        wake_s = next_s + (batch - 1) * period
-        until_s = min([wake_s] + [d[0] for sim in sims for d in sim.deferred])
-        for fd, _ in poller.poll(max(0.0, until_s - clock()) / speed * 1000.0):
-            by_fd[fd].receive()
-        now = clock()
-        for sim in sims:
-            sim._send_deferred(now)
-        if now < wake_s:
-            continue
-        if now - next_s > 0.25 * speed:  # stalled a quarter second (suspended, overloaded): resynchronise
-            if speed != 1.0:
-                log.warning('the simulator fell %.2f s behind its clock at %gx: this machine cannot keep up '
-                            'at that speed', now - next_s, speed)
+    try:
+        while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):
+            wake_s = next_s + (batch - 1) * period
+            until_s = min([wake_s] + [d[0] for sim in sims for d in sim.deferred])
+            for fd, _ in poller.poll(max(0.0, until_s - clock()) / speed):
+                by_fd[fd].receive()
+            now = clock()
             for sim in sims:
-                if sim.running:
-                    sim.step(period)
-            next_s = now + period
-            continue
-        # Streams are timed by each step's slot on the schedule, not by when poll() woke: at
-        # speed K a wake-up jitter of j wall seconds is K x j simulated ones, and at 10x a 1 ms
-        # late wake-up is a whole 100 Hz period: ATTITUDE, due every step, skipped one in three.
-        due = []
-        while next_s <= now:
-            due.append(next_s)
-            next_s += period
-        for sim in sims:
-            if not sim.running:
+                sim._send_deferred(now)
+            if now < wake_s:
                 continue
-            out = {}
-            for slot_s in due:
-                sim.step(period, slot_s - sim.boot_s, out)
-            for link, msgs in out.items():
-                link.send_many(msgs)  # a datagram per message, as PX4 (MavlinkLink.send_many)
-            if len(sims) > 1:  # what came in meanwhile is read now, not after every vehicle's turn
-                for fd, _ in poller.poll(0):
-                    by_fd[fd].receive()
+            if now - next_s > 0.25 * speed:  # stalled a quarter second (suspended, overloaded): resynchronise
+                if speed != 1.0:
+                    log.warning('the simulator fell %.2f s behind its clock at %gx: this machine cannot keep up '
+                                'at that speed', now - next_s, speed)
+                for sim in sims:
+                    if sim.running:
+                        sim.step(period)
+                next_s = now + period
+                continue
+            # Streams are timed by each step's slot on the schedule, not by when poll() woke: at
+            # speed K a wake-up jitter of j wall seconds is K x j simulated ones, and at 10x a 1 ms
+            # late wake-up is a whole 100 Hz period: ATTITUDE, due every step, skipped one in three.
+            due = []
+            while next_s <= now:
+                due.append(next_s)
+                next_s += period
+            for sim in sims:
+                if not sim.running:
+                    continue
+                out = {}
+                for slot_s in due:
+                    sim.step(period, slot_s - sim.boot_s, out)
+                for link, msgs in out.items():
+                    link.send_many(msgs)  # a datagram per message, as PX4 (MavlinkLink.send_many)
+                if len(sims) > 1:  # what came in meanwhile is read now, not after every vehicle's turn
+                    for fd, _ in poller.poll(0):
+                        by_fd[fd].receive()
+    finally:
+        poller.close()
