@@ -165,6 +165,17 @@ class BridgeTest(OffboardTestCase):
         time.sleep(0.3)  # anything sent after it would have arrived by now
         return self.fcu.of_type(name)[before:]
 
+    def publish_until_at_fcu(self, pub, msg, name, timeout_s=10.0):
+        """Publish msg every 0.2 s (wall) until the FCU gets a `name` more; then let the stragglers land."""
+        before, deadline = len(self.fcu.of_type(name)), time.monotonic() + timeout_s
+        while len(self.fcu.of_type(name)) == before:
+            if time.monotonic() > deadline:
+                self.fail('no %s at the FCU within %.0f s of publishing on %s every 0.2 s'
+                          % (name, timeout_s, pub.resolved_name))
+            pub.publish(msg)
+            time.sleep(0.2)
+        time.sleep(0.3)
+
     def sent_to_fcu(self, topic, data_class, messages, name):
         """Publish `messages` on the silent bridge's `topic`; what the FCU got as `name`."""
         pub = rospy.Publisher(topic, data_class, queue_size=10)
@@ -236,6 +247,11 @@ class BridgeTest(OffboardTestCase):
         self.wait_for_connected(self.silent, 10.0)
         pub = rospy.Publisher('silent/mavros/setpoint_position/local', PoseStamped, queue_size=10)
         self.wait_until(lambda: pub.get_num_connections() > 0, 5.0, 'the bridge subscribing')
+        # a setpoint through first, so that what follows travels a connection known to deliver (one
+        # run lost both of its first messages on a fresh one: rospy's, not the conversion under test)
+        first = PoseStamped()
+        first.pose.orientation.w = 1.0
+        self.publish_until_at_fcu(pub, first, 'SET_POSITION_TARGET_LOCAL_NED')
         before = len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED'))
         bad = PoseStamped()
         bad.pose.position.x = float('nan')
