@@ -6,8 +6,8 @@ in hover. No ROS: a quick side-by-side check of a change to the simulator (`--si
 checkout's src/), where `./run bench`'s fleet row carries every process and their noise.
 The default is 16 vehicles: at 32 the one process takes 92-97 % of a core on the 2-core development
 machine and hardly sleeps, so a cheaper simulator reads about the same there. A run varies by up to
-15 % (the process takes two ways of waking up, 60-200 and 450-530 wake-ups a second at 16 vehicles):
-compare alternated runs, several each.
+15 %: at 16 vehicles the process runs one of two ways for seconds at a time (about 60-120 wake-ups a
+second at 61-65 % of a core, or 500-620 at 51-52 %), so compare alternated runs, several each.
 
 The driver binds each vehicle's bridge port on 127.0.0.1 (sitl_ports), so run it where those are
 free, e.g. in a network namespace of its own: `unshare -n sh -c 'ip link set lo up; python3
@@ -26,14 +26,14 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'src'))
 
-from offboard_py import sitl_ports  # noqa: E402
+from offboard_py import px4_modes, sitl_ports  # noqa: E402
 from offboard_py.dialect import mavlink  # noqa: E402
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW  # noqa: E402
 
 SETPOINT_PERIOD_S = 0.05     # the tutorial's 20 Hz
 OFFBOARD_AFTER_S = 12.0      # the simulated PX4 is ready after its 4 s and the stream is steady
 MAV_MODE_FLAG_SAFETY_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
-PX4_OFFBOARD = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 6)  # base mode, PX4's main mode OFFBOARD
+PX4_OFFBOARD = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, px4_modes.MAIN_OFFBOARD)  # DO_SET_MODE's param1, 2
 
 
 def cpu_s(pid):
