@@ -33,11 +33,11 @@ from offboard_py.simtime import SimClock, SpeedError, parse_speed
 from offboard_py.stack import SIM_PROCESSES
 from offboard_py.tools.demo import launch_failure
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
+from proc_stats import cpu_seconds  # bench/ is this script's folder, first on sys.path
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
 SCALE_TARGET = 32  # vehicles on the development machine (2 cores)
 STACK_TARGET_PCT = 5.0  # node + bridge + simulator, % of one core a vehicle
-CLK_TCK = os.sysconf('SC_CLK_TCK')
 # Real mavros 1.21 and real PX4 SITL (SIH) hovering under the project's offb_node, % of one core, two runs each:
 # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts" (stack A)
 MAVROS_CPU_PCT = (2.08, 2.33)
@@ -120,11 +120,6 @@ def processes(launch_pid):
         elif b'sim_clock.py' in text:  # simulated time: the /clock publisher, counted with vehicle 0
             found[(0, 'clock')] = int(pid)
     return found
-
-
-def cpu_seconds(pid):
-    fields = open('/proc/%d/stat' % pid).read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK
 
 
 def rss_mb(pid):

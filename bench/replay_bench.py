@@ -36,6 +36,7 @@ from mavros_msgs.msg import State
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import benchmark  # noqa: E402  (bench/ is not a package)
+from proc_stats import cpu_seconds, wakeups  # noqa: E402
 from offboard_py import stack  # noqa: E402
 from offboard_py.tools.streamstats import latencies_ms, percentile  # noqa: E402
 
@@ -44,7 +45,6 @@ MAVROS_CPU_PCT = benchmark.MAVROS_CPU_PCT  # reference/px4-sitl-measured.md, "Re
 CPU_TARGET_PCT = 2.0
 LATENCY_P99_MS = 2.0
 SETTLE_S = 10.0  # after connection: the parameter and mission pulls are over
-CLK_TCK = os.sysconf('SC_CLK_TCK')
 FCU_URL = 'udp://:14540@127.0.0.1:14580'  # mavros's px4.launch with PX4 SITL's onboard ports
 SIDES = {'bridge': 'our bridge', 'mavros': 'real mavros'}
 NODE_START_S = 30.0  # roslaunch to a running mavros_node
@@ -87,28 +87,14 @@ def measured_pid(side, proc, timeout_s=NODE_START_S):
                        % (timeout_s, 'exited with %s' % proc.returncode if proc.poll() is not None else 'still running'))
 
 
-def wakeups(pid):
-    """Context switches (voluntary + involuntary) of all the process's threads: each is a wake-up or a
-    preemption; a sleeping thread woken by a datagram counts one voluntary switch when it sleeps again."""
-    total = 0
-    for tid in os.listdir('/proc/%d/task' % pid):
-        try:
-            for line in open('/proc/%d/task/%s/status' % (pid, tid)):
-                if line.startswith(('voluntary_ctxt_switches', 'nonvoluntary_ctxt_switches')):
-                    total += int(line.split()[1])
-        except OSError:
-            continue
-    return total
-
-
 def measure_window(pids, seconds):
     """CPU (% of one core) and wake-ups a second of each pid over `seconds` of wall time."""
-    cpu0 = {k: benchmark.cpu_seconds(p) for k, p in pids.items()}
+    cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
     wake0 = {k: wakeups(p) for k, p in pids.items()}
     t0 = time.monotonic()
     time.sleep(seconds)
     span = time.monotonic() - t0
-    return ({k: (benchmark.cpu_seconds(p) - cpu0[k]) / span * 100.0 for k, p in pids.items()},
+    return ({k: (cpu_seconds(p) - cpu0[k]) / span * 100.0 for k, p in pids.items()},
             {k: (wakeups(p) - wake0[k]) / span for k, p in pids.items()})
 
 

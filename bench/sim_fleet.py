@@ -29,31 +29,12 @@ sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'src'))
 from offboard_py import px4_modes, sitl_ports  # noqa: E402
 from offboard_py.dialect import mavlink  # noqa: E402
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW  # noqa: E402
+from proc_stats import cpu_split_seconds, wakeups  # noqa: E402  (bench/ is not a package)
 
 SETPOINT_PERIOD_S = 0.05     # the tutorial's 20 Hz
 OFFBOARD_AFTER_S = 12.0      # the simulated PX4 is ready after its 4 s and the stream is steady
 MAV_MODE_FLAG_SAFETY_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
 PX4_OFFBOARD = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, px4_modes.MAIN_OFFBOARD)  # DO_SET_MODE's param1, 2
-
-
-def cpu_s(pid):
-    """(user, system) CPU seconds of a process."""
-    with open('/proc/%d/stat' % pid) as f:
-        fields = f.read().rsplit(')', 1)[1].split()
-    tick = os.sysconf('SC_CLK_TCK')
-    return int(fields[11]) / tick, int(fields[12]) / tick
-
-
-def switches(pid):
-    """Context switches (voluntary + involuntary) of all the process's threads."""
-    total = 0
-    for tid in os.listdir('/proc/%d/task' % pid):
-        try:
-            with open('/proc/%d/task/%s/status' % (pid, tid)) as f:
-                total += sum(int(line.split()[1]) for line in f if 'ctxt_switches:' in line)
-        except OSError:
-            pass
-    return total
 
 
 class Bridges:
@@ -79,7 +60,7 @@ class Bridges:
     def drain(self, wait_s):
         """Read what the vehicles sent (waiting up to wait_s), keeping each one's last HEARTBEAT base mode."""
         self.poller.poll(max(0.0, wait_s) * 1000.0)
-        for i, (sock, mav, _, _) in enumerate(self.links):
+        for i, (sock, *_) in enumerate(self.links):
             while True:
                 try:
                     data = sock.recv(2048)
@@ -141,13 +122,13 @@ def run_once(args):
             bridges.tick(tick, elapsed, OFFBOARD_AFTER_S <= elapsed < args.warmup)
             tick, next_s = tick + 1, next_s + SETPOINT_PERIOD_S
             if window is None and elapsed >= args.warmup:
-                window = now, cpu_s(sim.pid), switches(sim.pid)
+                window = now, cpu_split_seconds(sim.pid), wakeups(sim.pid)
             elif window is not None and now - window[0] >= args.duration:
                 seconds = now - window[0]
-                user, system = (b - a for a, b in zip(window[1], cpu_s(sim.pid)))
+                user, system = (b - a for a, b in zip(window[1], cpu_split_seconds(sim.pid)))
                 armed = sum(bridges.armed(i) for i in range(args.vehicles))
                 return dict(armed=armed, cpu=(user + system) / seconds * 100, user=user / seconds * 100,
-                            system=system / seconds * 100, wakeups=(switches(sim.pid) - window[2]) / seconds)
+                            system=system / seconds * 100, wakeups=(wakeups(sim.pid) - window[2]) / seconds)
             if elapsed > args.warmup + args.duration + 30:
                 sys.exit('sim_fleet: no measurement %.0f s after the start' % elapsed)
     finally:
