@@ -30,7 +30,7 @@ from mavros_msgs.msg import State
 from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
-from offboard_py.stack import SIM_PROCESSES
+from offboard_py.stack import BRIDGES, SIM_PROCESSES, rospack_find
 from offboard_py.tools.demo import launch_failure
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
 from proc_stats import cpu_seconds  # bench/ is this script's folder, first on sys.path
@@ -98,6 +98,16 @@ def descends_from(pid, ancestor):
 ALL = 'all'  # processes()'s vehicle for a process that serves them all
 
 
+# What each process of the stack is, by its command line. The ROS side is the 'bridge' role whichever it is:
+# ours (mavros_bridge.py) or real mavros (its mavros_node binary, bench --bridge mavros).
+ROLES = (('sim', b'sim_px4.py'), ('bridge', b'mavros_bridge.py'), ('bridge', b'mavros_node'), ('node', b'offb_node.py'))
+
+
+def role_of(cmdline):
+    """'sim', 'bridge' or 'node' for a process's command line (bytes, arguments joined by spaces), else None."""
+    return next((role for role, key in ROLES if key in cmdline), None)
+
+
 def processes(launch_pid):
     """pid of each process of the stack started by the launch launch_pid, by (vehicle, role)."""
     found = {}
@@ -110,8 +120,7 @@ def processes(launch_pid):
         except OSError:
             continue
         text = b' '.join(cmd)
-        role = next((r for r, key in (('sim', b'sim_px4.py'), ('bridge', b'mavros_bridge.py'),
-                                      ('node', b'offb_node.py')) if key in text), None)
+        role = role_of(text)
         ns = next((e.split(b'=', 1)[1].decode() for e in env if e.startswith(b'ROS_NAMESPACE=')), '')
         if role and ns.strip('/').startswith('uav'):
             found[(int(ns.strip('/')[3:]), role)] = int(pid)
@@ -165,14 +174,15 @@ def forget_stale_nodes(prefixes=('/uav', '/sim_clock')):
 
 
 def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None, pack_datagrams=False,
-        sim_process='each'):
+        sim_process='each', bridge='ours'):
     """Fly n vehicles to 2 m, hover duration_s, and measure. At another speed than 1 the stack runs in
     simulated time: the hover lasts duration_s simulated seconds and the stream is timed on that clock
     (the simulator logs arrivals on it, the node stamps on /clock). `beside`: what else runs meanwhile
     (bench/junk_flood.py's flood): beside.start() right after the launch, beside.finish(watches)
     after the measurement and before the stack stops (it may wait, bounded, for what it watches).
     `pack_datagrams`: the simulator packs its messages into few datagrams (its --pack-datagrams, NOT PX4's
-    framing); by default it frames one message a datagram, as PX4 does."""
+    framing); by default it frames one message a datagram, as PX4 does. `bridge`: the ROS side, ours or real
+    mavros (multi_uav.launch bridge:=mavros), measured in the 'bridge' role either way."""
     clock = SimClock(speed)
     startup_timeout_s = startup_timeout_s or startup_bound_s(n)
     # arrivals as the simulator logs them: Unix ns in real time, simulated ns otherwise
@@ -180,7 +190,7 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
     launch_log = open(os.path.join(logdir, 'launch-%d-%g.log' % (n, speed)), 'w')
     launch = subprocess.Popen(['roslaunch', 'offboard_py', 'multi_uav.launch', 'n:=%d' % n, 'log_output:=log',
                                'sim_args:=--setpoint-log %s%s' % (logdir, ' --pack-datagrams' if pack_datagrams else ''),
-                               'speed:=%g' % speed, 'sim_process:=%s' % sim_process],
+                               'speed:=%g' % speed, 'sim_process:=%s' % sim_process, 'bridge:=%s' % bridge],
                               stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
     stamps = [] if latency else None
     watches = [Watch('/uav%d' % i, clock.now(), stamps if i == 0 else None, clock) for i in range(n)]
@@ -282,8 +292,14 @@ def main():
     p.add_argument('--pack-datagrams', action='store_true',
                    help="NOT PX4's framing: the simulator packs its messages into as few datagrams as fit 1400 bytes "
                         "(its --pack-datagrams); by default it sends one MAVLink message a datagram, as PX4 does")
+    p.add_argument('--bridge', choices=tuple(BRIDGES), default='ours',
+                   help='the ROS side: ours (the default) or real mavros (mavros, where `rospack find mavros` finds '
+                        'it): the same runs with real mavros in the bridge\'s place, measured as the bridge')
     p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench.json'), help='JSON output')
     args = p.parse_args(rospy.myargv()[1:])
+    if args.bridge == 'mavros' and rospack_find('mavros') is None:
+        p.error('--bridge mavros needs real mavros, and `rospack find mavros` finds no package here (install it, '
+                'or source its workspace before this one)')
     try:
         scale = [int(v) for v in args.scale.split(',') if v.strip()]
     except ValueError:
@@ -348,7 +364,8 @@ def _measure_speed(args, logdir, single):
     """One vehicle in simulated time at args.speed, its stream beside the real-time run's."""
     print('one vehicle in simulated time at %gx, %.0f simulated s of hover ...' % (args.speed, args.duration),
           flush=True)
-    sped = run(1, args.duration, logdir, latency=True, speed=args.speed, pack_datagrams=args.pack_datagrams)[0]
+    sped = run(1, args.duration, logdir, latency=True, speed=args.speed, pack_datagrams=args.pack_datagrams,
+               bridge=args.bridge)[0]
     rows = [('setpoint rate at the FCU (Hz)', 'rate_hz', 3), ('inter-arrival p50 (ms)', 'p50_ms', 1),
             ('inter-arrival p99 (ms)', 'p99_ms', 1), ('inter-arrival max (ms)', 'max_ms', 1),
             ('gaps over 100 ms', 'gaps_over_100ms', 0)]
@@ -374,10 +391,12 @@ def _measure_speed(args, logdir, single):
 
 def _measure(args, scale, logdir):
     result = {'machine': machine(),
-              'command': ' '.join(sys.argv), 'framing': framing(args.pack_datagrams), 'sim_process': args.sim_process}
+              'command': ' '.join(sys.argv), 'framing': framing(args.pack_datagrams), 'sim_process': args.sim_process,
+              'bridge': args.bridge}
     print('simulator framing: %s' % result['framing'], flush=True)
+    print('ROS side: %s' % BRIDGES[args.bridge], flush=True)
     print('one vehicle, %.0f s of hover ...' % args.duration, flush=True)
-    single = run(1, args.duration, logdir, latency=True, pack_datagrams=args.pack_datagrams)[0]
+    single = run(1, args.duration, logdir, latency=True, pack_datagrams=args.pack_datagrams, bridge=args.bridge)[0]
     result['single'] = single
     s, lat, ph = single['stream'], single['latency_ms'], single['phases_s']
     total = sum(v for v in single['cpu_pct'].values() if v is not None)
@@ -399,13 +418,15 @@ def _measure(args, scale, logdir):
              % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2), met(within(lat['p99'], 2.0))),
              '| simulator read lag (kernel arrival -> handled) p50 / p99 / max | %s / %s / %s ms | | |'
              % tuple(fmt(single['sim_read_lag_ms'][k], 2) for k in ('p50', 'p99', 'max'))]
+    ros_side = 'bridge' if args.bridge == 'ours' else 'real mavros'
     for role in ('node', 'bridge', 'sim'):
         lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | | |'
-                     % (role, fmt(single['cpu_pct'].get(role)), fmt(single['rss_mb'][role], 0)))
+                     % ('real mavros' if role == 'bridge' and args.bridge == 'mavros' else role,
+                        fmt(single['cpu_pct'].get(role)), fmt(single['rss_mb'][role], 0)))
     bridge = single['cpu_pct'].get('bridge')
     if bridge is not None:
-        lines.append('| bridge / real mavros 1.21 (recorded %.2f-%.2f %%) | %.2f-%.2f | <= 1 | %s |'
-                     % (MAVROS_CPU_PCT + (bridge / MAVROS_CPU_PCT[1], bridge / MAVROS_CPU_PCT[0],
+        lines.append('| %s / real mavros 1.21 (recorded %.2f-%.2f %%) | %.2f-%.2f | <= 1 | %s |'
+                     % ((ros_side,) + MAVROS_CPU_PCT + (bridge / MAVROS_CPU_PCT[1], bridge / MAVROS_CPU_PCT[0],
                                           met(bridge <= MAVROS_CPU_PCT[0]))))
     sim = single['cpu_pct'].get('sim')
     if sim is not None:
@@ -426,7 +447,7 @@ def _measure(args, scale, logdir):
         print('%d vehicles, %.0f s of hover ...' % (n, args.scale_duration), flush=True)
         try:
             vehicles = run(n, args.scale_duration, logdir, pack_datagrams=args.pack_datagrams,
-                           sim_process=args.sim_process)
+                           sim_process=args.sim_process, bridge=args.bridge)
         except RuntimeError as err:
             steps.append({'n': n, 'error': str(err)})
             print('  %s' % err, flush=True)
@@ -448,8 +469,9 @@ def _measure(args, scale, logdir):
         largest = n
     result['scaling'] = steps
     result['largest_n_holding_bar'] = largest
-    table = ['simulator framing: %s; simulated vehicles: %s (sim_process:=%s)'
-             % (result['framing'], SIM_PROCESSES[args.sim_process], args.sim_process), '',
+    table = ['simulator framing: %s; simulated vehicles: %s (sim_process:=%s); ROS side: %s (bridge:=%s)'
+             % (result['framing'], SIM_PROCESSES[args.sim_process], args.sim_process, BRIDGES[args.bridge],
+                args.bridge), '',
              '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) '
              '| per vehicle: node / bridge / sim (%) | per vehicle, all (%) | bridge / real mavros | bar '
              '| simulator read lag p99 (ms) |',

@@ -1,0 +1,46 @@
+"""bench/benchmark.py's pure parts, offline: which process of a launched stack is which (also with real
+mavros as the ROS side, --bridge mavros), and --bridge mavros refused where there is no mavros."""
+
+import sys
+
+import pytest
+
+import bench_scripts
+
+
+@pytest.fixture(scope='module')
+def benchmark():
+    return bench_scripts.load('benchmark')
+
+
+@pytest.mark.parametrize('cmdline, role', [
+    (b'/usr/bin/python3 /ws/src/offboard_py/scripts/sim_px4.py -i 0 --vehicles 32 --spawn 0,0 __name:=sim_px4', 'sim'),
+    (b'/usr/bin/python3 /ws/devel/lib/offboard_py/mavros_bridge.py __name:=mavros __log:=/r/l.log', 'bridge'),
+    (b'/opt/mavros_ws/devel/lib/mavros/mavros_node __name:=mavros __log:=/r/uav3-mavros-1.log', 'bridge'),
+    (b'/usr/bin/python3 /ws/devel/lib/offboard_py/offb_node.py __name:=offb_node', 'node'),
+    (b'/usr/bin/python3 /usr/bin/roslaunch offboard_py multi_uav.launch n:=32 bridge:=mavros', None),
+    (b'/usr/bin/python3 /usr/bin/rosmaster --core -p 11311', None),
+])
+def test_each_process_of_the_stack_is_told_apart_by_its_command_line(benchmark, cmdline, role):
+    assert benchmark.role_of(cmdline) == role
+
+
+def test_bridge_mavros_without_mavros_is_refused_naming_what_was_looked_for(benchmark, tmp_path, monkeypatch,
+                                                                             capsys):
+    monkeypatch.setenv('ROS_PACKAGE_PATH', str(tmp_path))  # a package path with no mavros on it
+    monkeypatch.setenv('ROS_HOME', str(tmp_path))
+    monkeypatch.setattr(sys, 'argv', ['benchmark.py', '--bridge', 'mavros', '--duration', '5'])
+    with pytest.raises(SystemExit) as exit_:
+        benchmark.main()
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert '--bridge mavros needs real mavros' in err and '`rospack find mavros` finds no package' in err
+
+
+def test_an_unknown_ros_side_is_refused_naming_the_choices(benchmark, monkeypatch, capsys):
+    monkeypatch.setattr(sys, 'argv', ['benchmark.py', '--bridge', 'mavros2'])
+    with pytest.raises(SystemExit) as exit_:
+        benchmark.main()
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "--bridge: invalid choice: 'mavros2'" in err and "'ours'" in err and "'mavros'" in err
