@@ -67,22 +67,31 @@ _CRC = struct.Struct('<H')
 _PYMAVLINK_PACK = mavlink.MAVLink_message._pack
 
 
+def frame_v2(msg_id, crc_extra, payload, seq, system, component):
+    """(frame, trimmed payload, CRC) of an unsigned MAVLink 2 frame of a whole payload (the message class's
+    struct packed): what pymavlink's _pack makes of it. Needs pymavlink's C CRC (see FAST_FRAMES)."""
+    payload = payload.rstrip(b'\0') or payload[:1]  # MAVLink 2 drops trailing zeros, not all of them
+    size = len(payload)
+    # the CRC runs over the frame after its magic byte, then the message's CRC_EXTRA
+    checked = _HEADER_V2_AFTER_MAGIC.pack(size, 0, 0, seq, system, component, msg_id & 0xFFFF, msg_id >> 16) + payload
+    crc = mavlink.mcrf4xx(checked + _CRC_EXTRA_BYTES[crc_extra], 0xFFFF)
+    return _MAGIC_V2 + checked + _CRC.pack(crc), payload, crc
+
+
 def _pack_v2(self, mav, crc_extra, payload, force_mavlink1=False):
     if force_mavlink1 or mav.signing.sign_outgoing:
         return _PYMAVLINK_PACK(self, mav, crc_extra, payload, force_mavlink1)
-    payload = self._payload = payload.rstrip(b'\0') or payload[:1]  # MAVLink 2 drops trailing zeros, not all
-    size, msg_id, seq, system, component = len(payload), self._header.msgId, mav.seq, mav.srcSystem, mav.srcComponent
-    self._header = mavlink.MAVLink_header(msg_id, 0, 0, size, seq, system, component)
-    # the CRC runs over the frame after its magic byte, then the message's CRC_EXTRA
-    checked = _HEADER_V2_AFTER_MAGIC.pack(size, 0, 0, seq, system, component, msg_id & 0xFFFF, msg_id >> 16) + payload
-    crc = self._crc = mavlink.mcrf4xx(checked + _CRC_EXTRA_BYTES[crc_extra], 0xFFFF)
-    frame = _MAGIC_V2 + checked + _CRC.pack(crc)
+    msg_id, seq, system, component = self._header.msgId, mav.seq, mav.srcSystem, mav.srcComponent
+    frame, self._payload, self._crc = frame_v2(msg_id, crc_extra, payload, seq, system, component)
+    self._header = mavlink.MAVLink_header(msg_id, 0, 0, len(self._payload), seq, system, component)
     self._msgbuf = bytearray(frame)
     return frame
 
 
 _CRC_EXTRA_BYTES = [bytes((extra,)) for extra in range(256)]
-if mavlink.mcrf4xx is not None and mavlink.WIRE_PROTOCOL_VERSION == '2.0':
+# Whether frame_v2 can be used: pymavlink's C CRC is there and the dialect speaks MAVLink 2
+FAST_FRAMES = mavlink.mcrf4xx is not None and mavlink.WIRE_PROTOCOL_VERSION == '2.0'
+if FAST_FRAMES:
     mavlink.MAVLink_message._pack = _pack_v2
 
 

@@ -296,14 +296,21 @@ class MavlinkLink:
         return self._pack_all((msg,))[0]
 
     def _pack_all(self, msgs):
-        """The frames of msgs (pymavlink messages), numbered in order by this link's codec (which signs
-        them when signing is on)."""
+        """The frames of msgs (pymavlink messages, or wire.Outgoing ones framed from their encoder's
+        arguments), numbered in order by this link's codec (which signs them when signing is on)."""
         with self._send_lock:
             mav = self.mav
             seq = mav.seq
             frames = []
             for msg in msgs:
-                if mav.signing.sign_outgoing:
+                signed = mav.signing.sign_outgoing
+                if type(msg) is wire.Outgoing:
+                    if not signed:
+                        frames.append(msg.frame(seq, mav.srcSystem, mav.srcComponent))
+                        seq = (seq + 1) & 0xFF
+                        continue
+                    msg = msg.message()  # pymavlink signs its own messages
+                if signed:
                     self.signing.stamp_outgoing()
                 mav.seq = seq  # pymavlink's pack() numbers the frame with it and leaves it as it was
                 frames.append(msg.pack(mav))

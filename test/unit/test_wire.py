@@ -12,6 +12,7 @@
 
 import contextlib
 import copy
+import inspect
 import random
 import socket
 import struct
@@ -39,6 +40,11 @@ def _value(rng, type_name):
 def sample_message(cls, rng):
     """An instance of a pymavlink message class with random field values (zeros often, so
     that trailing-zero trimming is exercised)."""
+    return cls(*sample_args(cls, rng))
+
+
+def sample_args(cls, rng):
+    """Random arguments of a pymavlink message class's constructor (and its encoder), in its order."""
     args = []
     for name, type_name in zip(cls.fieldnames, cls.fieldtypes):
         length = cls.array_lengths[cls.ordered_fieldnames.index(name)]
@@ -49,7 +55,7 @@ def sample_message(cls, rng):
             args.append([_value(rng, type_name) for _ in range(length)])
         else:
             args.append(_value(rng, type_name))
-    return cls(*args)
+    return args
 
 
 @contextlib.contextmanager
@@ -65,8 +71,61 @@ def pymavlinks_own_pack():
 
 
 def _all_zero(cls):
-    return cls(*[(b'' if t == 'char' else [0] * n if n else 0) for t, n in (
-        (t, cls.array_lengths[cls.ordered_fieldnames.index(f)]) for f, t in zip(cls.fieldnames, cls.fieldtypes))])
+    return cls(*_zero_args(cls))
+
+
+def _zero_args(cls):
+    return [(b'' if t == 'char' else [0] * n if n else 0) for t, n in (
+        (t, cls.array_lengths[cls.ordered_fieldnames.index(f)]) for f, t in zip(cls.fieldnames, cls.fieldtypes))]
+
+
+def _required(cls):
+    """How many of the constructor's arguments have no default (the rest are MAVLink 2 extensions)."""
+    return sum(1 for p in inspect.signature(cls.__init__).parameters.values()
+               if p.default is inspect.Parameter.empty) - 1  # self
+
+
+@pytest.mark.parametrize('msg_id', sorted(mavlink.mavlink_map))
+def test_an_outgoing_message_is_framed_as_pymavlink_packs_it(msg_id):
+    """wire.Encoder's messages (wire.Outgoing, what the simulated PX4 streams) are framed from their
+    arguments into pymavlink's bytes: sampled, all-zero, and with the extension fields left out; asked
+    anything else, they answer as pymavlink's message of the same arguments."""
+    rng = random.Random(10000 + msg_id)
+    cls = mavlink.mavlink_map[msg_id]
+    encode = getattr(wire.Encoder(mavlink.MAVLink(None, srcSystem=42, srcComponent=190)),
+                     cls.msgname.lower() + '_encode')
+    sampled = sample_args(cls, rng)
+    for seq, args in ((0, sampled), (77, sample_args(cls, rng)), (255, _zero_args(cls)),
+                      (3, sampled[:_required(cls)])):
+        msg = encode(*args)
+        assert type(msg) is wire.Outgoing, cls.msgname
+        reference = mavlink.MAVLink(None, srcSystem=42, srcComponent=190)
+        reference.seq = seq
+        with pymavlinks_own_pack():
+            expected = cls(*args).pack(reference)
+        assert msg.frame(seq, 42, 190) == expected, cls.msgname
+        assert wire.encode(msg, seq, 42, 190) == expected, cls.msgname
+        assert msg.get_type() == cls.msgname and msg.to_dict() == cls(*args).to_dict()
+    assert type(encode(*sampled[:-1], **{cls.fieldnames[-1]: sampled[-1]})) is cls, 'by name: pymavlink\'s own'
+
+
+def test_a_link_frames_outgoing_messages_in_its_sequence_and_signs_them_as_pymavlink():
+    link = MavlinkLink(('127.0.0.1', 0), None, system_id=3, component_id=1, learn_remote=False)
+    try:
+        encoder = wire.Encoder(link.mav)
+        plain = [link._pack(encoder.attitude_encode(1000 + i, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0)) for i in range(2)]
+        key = bytes(range(32))
+        link.enable_signing(key, timestamp=1000)
+        signed = link._pack(encoder.attitude_encode(1002, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0))
+    finally:
+        link.close()
+    assert [f[4] for f in plain + [signed]] == [0, 1, 2], 'one sequence for both kinds of message'
+    assert plain[0] == wire.encode(mavlink.MAVLink_attitude_message(1000, 0.1, 0.2, 0.3, 0.0, 0.0, 0.0), 0, 3, 1)
+    assert signed[2] & wire.IFLAG_SIGNED
+    reader = mavlink.MAVLink(None)
+    reader.signing.secret_key = key
+    (decoded,) = reader.parse_buffer(signed)
+    assert decoded.time_boot_ms == 1002 and reader.signing.badsig_count == 0
 
 
 @pytest.mark.parametrize('msg_id', sorted(mavlink.mavlink_map))

@@ -16,7 +16,7 @@ EVENT / CURRENT_EVENT_SEQUENCE (its event interface, whose texts live in PX4's o
 import math
 import time
 
-from offboard_py import dialect, px4_modes
+from offboard_py import dialect, px4_modes, wire
 from offboard_py.dialect import mavlink
 from offboard_py.sim.navigator import rtl_time_estimate
 from offboard_py.sim.vehicle import quaternion_from_thrust
@@ -308,10 +308,13 @@ def _next_sample_s(due_s, now_s, rate_hz):
 
 
 class TelemetryBuilder:
-    """Builds the autopilot's messages with `mav` (a pymavlink codec) from a flight Status."""
+    """Builds the autopilot's messages with `mav` (a pymavlink codec) from a flight Status, as wire.Outgoing
+    messages (pymavlink's message of the same arguments on demand)."""
 
     def __init__(self, mav, frame, params, boot_s=0.0):
-        self.mav, self.frame, self.params = mav, frame, params
+        # the streams' messages are wire.Outgoing: framed by the links from their arguments, as pymavlink
+        # would pack them, without a pymavlink message object each
+        self.mav, self.frame, self.params = wire.Encoder(mav), frame, params
         self.boot_s = boot_s
         self.uid = UID_BASE + mav.srcSystem
         self.ping_seq = 0
