@@ -297,6 +297,9 @@ def main():
                         'it): the same runs with real mavros in the bridge\'s place, measured as the bridge')
     p.add_argument('--out', default=os.path.join(os.getcwd(), 'out', 'bench.json'), help='JSON output')
     args = p.parse_args(rospy.myargv()[1:])
+    if args.bridge == 'mavros' and args.pack_datagrams:
+        p.error('--bridge mavros with --pack-datagrams: real mavros reads at most 296 bytes of a datagram and '
+                'cannot read the packed ones')
     if args.bridge == 'mavros' and rospack_find('mavros') is None:
         p.error('--bridge mavros needs real mavros, and `rospack find mavros` finds no package here (install it, '
                 'or source its workspace before this one)')

@@ -200,11 +200,11 @@ class _Layout:
 class Outgoing:
     """A message to send, kept as the arguments of its pymavlink encoder (`MAVLink.attitude_encode(...)`):
     a link frames it from them (frame(): the bytes pymavlink packs) without the message object pymavlink's
-    encoder makes, which for the simulated PX4's streams (some 780 messages a second a vehicle) is about 5 %
-    of its CPU (2026-11-26, side by side: 16 vehicles in one process 2.99-3.42 % of a core a vehicle against
-    3.04-3.66, its step and streams 11-12 % faster). Anything else asked of it (a field, get_type(),
-    to_dict(), pack()) is asked of pymavlink's message of the same arguments, made on first use: a test or
-    a log line sees what pymavlink's encoder would have returned."""
+    encoder makes (every pymavlink encoder only makes that object). For the simulated PX4's streams, some
+    780 messages a second a vehicle, that is about 5 % of its CPU (bench/results/2026-11-26-sim-saturation.md).
+    Anything else asked of it (a field, get_type(), to_dict(), pack()) is asked of pymavlink's message of the
+    same arguments, made on first use: a test or a log line sees what pymavlink's encoder would have
+    returned."""
 
     __slots__ = ('_layout', '_args', '_message')
 
@@ -232,7 +232,7 @@ class Outgoing:
         return 'Outgoing(%r)' % (self.message(),)
 
 
-_LAYOUT_BY_ENCODER = {cls.msgname.lower() + '_encode': cls for cls in mavlink.mavlink_map.values()}
+_CLASS_BY_ENCODER = {cls.msgname.lower() + '_encode': cls for cls in mavlink.mavlink_map.values()}
 
 
 class Encoder:
@@ -245,7 +245,7 @@ class Encoder:
         self.codec = codec
 
     def __getattr__(self, name):
-        cls = _LAYOUT_BY_ENCODER.get(name) if FAST_FRAMES else None
+        cls = _CLASS_BY_ENCODER.get(name) if FAST_FRAMES else None
         if cls is None:
             return getattr(self.codec, name)
         layout = _Layout(cls)

@@ -1,5 +1,6 @@
 """bench/benchmark.py's pure parts, offline: which process of a launched stack is which (also with real
-mavros as the ROS side, --bridge mavros), and --bridge mavros refused where there is no mavros."""
+mavros as the ROS side, --bridge mavros), and --bridge mavros refused where there is no mavros or with the
+simulator's packed datagrams, which real mavros cannot read."""
 
 import sys
 
@@ -44,3 +45,11 @@ def test_an_unknown_ros_side_is_refused_naming_the_choices(benchmark, monkeypatc
     assert exit_.value.code == 2
     err = capsys.readouterr().err
     assert "--bridge: invalid choice: 'mavros2'" in err and "'ours'" in err and "'mavros'" in err
+
+
+def test_bridge_mavros_with_packed_datagrams_is_refused(benchmark, monkeypatch, capsys):
+    monkeypatch.setattr(sys, 'argv', ['benchmark.py', '--bridge', 'mavros', '--pack-datagrams'])
+    with pytest.raises(SystemExit) as exit_:
+        benchmark.main()
+    assert exit_.value.code == 2
+    assert 'real mavros reads at most 296 bytes of a datagram' in capsys.readouterr().err
