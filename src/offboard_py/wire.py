@@ -158,7 +158,8 @@ def payload(msg):
     """The untrimmed payload of a pymavlink message: its frame's, with the trailing zeros MAVLink 2
     drops put back."""
     body = encode(msg, 0, 0, 0)[HEADER_V2:-2]
-    return body + bytes(payload_size(type(msg)) - len(body))
+    cls = msg._layout.cls if type(msg) is Outgoing else type(msg)
+    return body + bytes(payload_size(cls) - len(body))
 
 
 # -- messages kept as their encoder's arguments ---------------------------------------------------

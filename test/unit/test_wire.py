@@ -105,6 +105,7 @@ def test_an_outgoing_message_is_framed_as_pymavlink_packs_it(msg_id):
             expected = cls(*args).pack(reference)
         assert msg.frame(seq, 42, 190) == expected, cls.msgname
         assert wire.encode(msg, seq, 42, 190) == expected, cls.msgname
+        assert wire.payload(msg) == wire.payload(cls(*args)), cls.msgname
         assert msg.get_type() == cls.msgname and msg.to_dict() == cls(*args).to_dict()
     assert type(encode(*sampled[:-1], **{cls.fieldnames[-1]: sampled[-1]})) is cls, 'by name: pymavlink\'s own'
 
