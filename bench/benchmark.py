@@ -33,7 +33,7 @@ from offboard_py.simtime import SimClock, SpeedError, parse_speed
 from offboard_py.stack import BRIDGES, SIM_PROCESSES, rospack_find
 from offboard_py.tools.demo import launch_failure
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
-from proc_stats import cpu_seconds  # bench/ is this script's folder, first on sys.path
+from proc_stats import cpu_seconds, wakeups  # bench/ is this script's folder, first on sys.path
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
 SCALE_TARGET = 32  # vehicles on the development machine (2 cores)
@@ -214,11 +214,14 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
             time.sleep(0.2)
         pids = processes(launch.pid)
         cpu0 = {k: cpu_seconds(p) for k, p in pids.items()}
+        woken0 = {k: wakeups(p) for k, p in pids.items()}
         window = (now_ns(), time.monotonic())
         clock.sleep(duration_s)
-        cpu = {k: (cpu_seconds(p) - cpu0[k]) / (time.monotonic() - window[1]) * 100.0 for k, p in pids.items()}
+        elapsed_s = time.monotonic() - window[1]
+        cpu = {k: (cpu_seconds(p) - cpu0[k]) / elapsed_s * 100.0 for k, p in pids.items()}
+        woken = {k: (wakeups(p) - woken0[k]) / elapsed_s for k, p in pids.items()}  # a second, all threads
         rss = {k: rss_mb(p) for k, p in pids.items()}
-        for shares in (cpu, rss):  # a process that serves every vehicle: an equal share each
+        for shares in (cpu, woken, rss):  # a process that serves every vehicle: an equal share each
             if (ALL, 'sim') in shares:
                 shared = shares.pop((ALL, 'sim'))
                 shares.update({(i, 'sim'): shared / n for i in range(n)})
@@ -254,6 +257,7 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
                                      'max': max(read_lag) if read_lag else None},
                  'cpu_pct': {role: cpu.get((i, role)) for role in ('node', 'bridge', 'sim', 'clock')
                              if (i, role) in cpu or role != 'clock'},
+                 'wakeups_per_s': {role: woken.get((i, role)) for role in ('node', 'bridge', 'sim')},
                  'rss_mb': {role: rss.get((i, role)) for role in ('node', 'bridge', 'sim')}}
         if latency and i == 0:
             lat = latencies_ms(inside, stamps)
@@ -459,7 +463,9 @@ def _measure(args, scale, logdir):
         ok = all(st and st['p99_ms'] <= BAR_P99_MS and st['max_ms'] <= BAR_MAX_MS for st in streams)
         per_role = {role: sum(v['cpu_pct'].get(role) or 0 for v in vehicles) / n
                     for role in ('node', 'bridge', 'sim')}
+        woken = {role: sum(v['wakeups_per_s'].get(role) or 0 for v in vehicles) / n for role in ('node', 'bridge', 'sim')}
         step = {'n': n, 'worst_rate_hz': min(st['rate_hz'] for st in streams), 'cpu_pct_per_vehicle': per_role,
+                'wakeups_per_s_per_vehicle': woken,
                 'stack_cpu_pct_per_vehicle': sum(per_role.values()),
                 'worst_p99_ms': max(st['p99_ms'] for st in streams), 'worst_max_ms': max(st['max_ms'] for st in streams),
                 'worst_sim_read_lag_p99_ms': max(v['sim_read_lag_ms']['p99'] or 0 for v in vehicles),
@@ -477,21 +483,25 @@ def _measure(args, scale, logdir):
                 args.bridge), '',
              '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) '
              '| per vehicle: node / bridge / sim (%) | per vehicle, all (%) | bridge / real mavros | bar '
-             '| simulator read lag p99 (ms) |',
-             '|---|---|---|---|---|---|---|---|---|---|']
+             '| simulator read lag p99 (ms) | wake-ups/s a vehicle: node / bridge / sim |',
+             '|---|---|---|---|---|---|---|---|---|---|---|']
     for st in steps:
         if 'error' in st:
-            table.append('| %d | failed: %s | | | | | | | no | |' % (st['n'], st['error']))
+            table.append('| %d | failed: %s | | | | | | | no | | |' % (st['n'], st['error']))
         else:
             role = st['cpu_pct_per_vehicle']
-            table.append('| %d | %s | %s | %s | %s | %s / %s / %s | %s | %.2f-%.2f | %s | %s |'
+            woken = st['wakeups_per_s_per_vehicle']
+            table.append('| %d | %s | %s | %s | %s | %s / %s / %s | %s | %.2f-%.2f | %s | %s | %s / %s / %s |'
                          % (st['n'], fmt(st['worst_rate_hz'], 2), fmt(st['worst_p99_ms']), fmt(st['worst_max_ms']),
                             fmt(st['total_cpu_pct'], 0), fmt(role['node'], 2), fmt(role['bridge'], 2),
                             fmt(role['sim'], 2), fmt(st['stack_cpu_pct_per_vehicle'], 2), role['bridge'] / MAVROS_CPU_PCT[1],
                             role['bridge'] / MAVROS_CPU_PCT[0], 'yes' if st['holds_bar'] else 'no',
-                            fmt(st['worst_sim_read_lag_p99_ms'])))
+                            fmt(st['worst_sim_read_lag_p99_ms']), fmt(woken['node'], 0), fmt(woken['bridge'], 0),
+                            fmt(woken['sim'], 0)))
     table.append('\nbar: every vehicle\'s setpoint stream, as it reached its simulated PX4 (the kernel\'s receive time '
                  'at its socket), has an inter-arrival p99 <= %.0f ms and no gap over %.0f ms' % (BAR_P99_MS, BAR_MAX_MS))
+    table.append('wake-ups: context switches of all a process\'s threads a second (a thread that sleeps again after '
+                 'a wake-up counts one; a preemption counts one), the one simulator process shared out equally')
     table.append('simulator read lag: how long after the kernel\'s arrival the simulator handled a setpoint (worst '
                  'vehicle); a real PX4 reads its socket in a thread of its own')
     table.append('bridge / real mavros: the bridge\'s CPU over real mavros 1.21\'s recorded %.2f-%.2f %% of one core '
