@@ -19,6 +19,7 @@ for what is only sent.
 Signed frames are left to pymavlink and offboard_py.signing: encode() has no signature.
 """
 
+import functools
 import inspect
 import struct
 
@@ -198,6 +199,12 @@ class _Layout:
         return self.pack(*values)
 
 
+@functools.lru_cache(maxsize=None)
+def _layout(cls):
+    """The one _Layout of a message class, shared by every Encoder (a fleet's vehicles each have one)."""
+    return _Layout(cls)
+
+
 class Outgoing:
     """A message to send, kept as the arguments of its pymavlink encoder (`MAVLink.attitude_encode(...)`):
     a link frames it from them (frame(): the bytes pymavlink packs) without the message object pymavlink's
@@ -249,7 +256,7 @@ class Encoder:
         cls = _CLASS_BY_ENCODER.get(name) if FAST_FRAMES else None
         if cls is None:
             return getattr(self.codec, name)
-        layout = _Layout(cls)
+        layout = _layout(cls)
 
         def encode(*args, **by_name):
             if by_name:
