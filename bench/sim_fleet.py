@@ -26,7 +26,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'src'))
 
-from offboard_py import px4_modes, sitl_ports  # noqa: E402
+from offboard_py import px4_modes, sitl_ports, wire  # noqa: E402
 from offboard_py.dialect import mavlink  # noqa: E402
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW  # noqa: E402
 from proc_stats import cpu_split_seconds, wakeups  # noqa: E402  (bench/ is not a package)
@@ -34,6 +34,7 @@ from proc_stats import cpu_split_seconds, wakeups  # noqa: E402  (bench/ is not 
 SETPOINT_PERIOD_S = 0.05     # the tutorial's 20 Hz
 OFFBOARD_AFTER_S = 12.0      # the simulated PX4 is ready after its 4 s and the stream is steady
 MAV_MODE_FLAG_SAFETY_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+HB_BASE_MODE = wire.HEADER_V2 + 6  # HEARTBEAT's base_mode in its frame (after custom_mode, type, autopilot)
 PX4_OFFBOARD = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, px4_modes.MAIN_OFFBOARD)  # DO_SET_MODE's param1, 2
 
 
@@ -66,9 +67,10 @@ class Bridges:
                     data = sock.recv(2048)
                 except BlockingIOError:
                     break
-                # one message a datagram: a HEARTBEAT (id 0) carries base_mode at payload byte 6
-                if len(data) > 16 and data[0] == mavlink.PROTOCOL_MARKER_V2 and data[7:10] == b'\0\0\0':
-                    self.base_mode[i] = data[16]
+                # one message a datagram: a HEARTBEAT (id 0, bytes 7-9 of the header) carries base_mode at
+                # payload byte 6; read in place, as the driver must cost the machine little beside the simulator
+                if (len(data) > HB_BASE_MODE and data[0] == wire.MAGIC_V2 and data[7:wire.HEADER_V2] == b'\0\0\0'):
+                    self.base_mode[i] = data[HB_BASE_MODE]
 
     def send(self, i, msg):
         sock, mav, fcu, _ = self.links[i]
