@@ -443,6 +443,8 @@ def _measure(args, scale, logdir):
                  % (fmt(total), STACK_TARGET_PCT, met(total <= STACK_TARGET_PCT)))
     lines.append('| start -> connected -> OFFBOARD -> armed -> hover (0.1 m) | %s / %s / %s / %s s | | |'
                  % tuple(fmt(ph.get(k)) for k in ('connected', 'offboard', 'armed', 'hover')))
+    lines.append('\nrecorded: real mavros 1.21 and PX4 SITL flying the tutorial live, in another setting than this benchmark\'s '
+                 '(reference/px4-sitl-measured.md); `--bridge mavros` measures real mavros in this one')
     print('\n'.join(lines), flush=True)
     if args.speed != 1.0:
         result['sim_time'] = _measure_speed(args, logdir, single)
