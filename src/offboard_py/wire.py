@@ -158,9 +158,10 @@ def encode(msg, seq, system_id, component_id):
 def payload(msg):
     """The untrimmed payload of a pymavlink message: its frame's, with the trailing zeros MAVLink 2
     drops put back."""
+    if type(msg) is Outgoing:  # its whole payload straight from its arguments
+        return msg._layout.payload(msg._args)
     body = encode(msg, 0, 0, 0)[HEADER_V2:-2]
-    cls = msg._layout.cls if type(msg) is Outgoing else type(msg)
-    return body + bytes(payload_size(cls) - len(body))
+    return body + bytes(payload_size(type(msg)) - len(body))
 
 
 # -- messages kept as their encoder's arguments ---------------------------------------------------
