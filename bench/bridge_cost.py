@@ -67,6 +67,10 @@ class Ros:
     def is_shutdown():
         return False
 
+    @staticmethod
+    def node_name():
+        return '/mavros'
+
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])

@@ -120,9 +120,13 @@ class FakePublisher:
 
 
 class FakeRos:
-    def __init__(self):
+    def __init__(self, node_name='/mavros'):
         self.topics, self.services, self.subscriptions = {}, {}, {}
         self.params = {}
+        self.name = node_name
+
+    def node_name(self):
+        return self.name
 
     def get_param(self, name, default):
         return self.params.get(name, default)
@@ -171,9 +175,9 @@ class FakeClock:
 class Rig:
     """One bridge with the given plugins on a fake link."""
 
-    def __init__(self, *plugins, **params):
+    def __init__(self, *plugins, node_name='/mavros', **params):
         cfg = read_config(lambda name, default: params.get(name.replace('/', '__'), default))
-        self.link, self.ros, self.clock = FakeLink(), FakeRos(), FakeClock()
+        self.link, self.ros, self.clock = FakeLink(), FakeRos(node_name), FakeClock()
         self.fcu = FakeFcu(self.link)
         self.bridge = Bridge(cfg, self.link, self.ros, plugins, clock=self.clock)
         self.plugin = self.bridge.plugins[0]

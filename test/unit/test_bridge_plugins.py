@@ -932,6 +932,18 @@ def test_diagnostics_say_what_mavros_says():
         '1', 'Quadrotor', 'PX4 Autopilot', 'AUTO.LOITER', 'Standby']
 
 
+def test_diagnostics_are_named_after_the_node_as_diagnostic_updater_names_them():
+    """diagnostic_updater puts the node's name before each status (Updater::publish: the name without
+    its leading slash): in a fleet, /uav3/mavros's say "uav3/mavros: ...", so each vehicle's can be told
+    from the others' on the one /diagnostics topic."""
+    from offboard_py.bridge import diagnostics
+    rig = Rig(sys_status.SysStatus, diagnostics.Diagnostics, node_name='/uav3/mavros')
+    rig.tick(rig.clock.now_s + 1.0)
+    [array] = rig.published('/diagnostics')
+    assert [s.name for s in array.status] == ['uav3/mavros: FCU connection', 'uav3/mavros: Heartbeat',
+                                              'uav3/mavros: System']
+
+
 def test_fcu_connection_status_counts_drops_and_speeds_as_mavconn():
     """mavconn's speeds: the bytes since the last status over its whole seconds; dropped packets are
     counted, and the summary stays mavros's (whose parser never counts a drop): no warning for them."""

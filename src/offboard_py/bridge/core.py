@@ -141,6 +141,10 @@ class Bridge:
     def is_shutdown(self):
         return self._ros.is_shutdown()
 
+    def node_name(self):
+        """The node's resolved name, e.g. /mavros or /uav3/mavros."""
+        return self._ros.node_name()
+
     def now_ns(self):
         return self.now().to_nsec()
 
@@ -202,8 +206,8 @@ class Bridge:
         setattr(self, name, what)
 
     def diagnostic(self, name, status):
-        """Add a status to /diagnostics ("mavros: <name>"): status() -> (level, message, [(key, value)]),
-        level a diagnostic_msgs/DiagnosticStatus level."""
+        """Add a status to /diagnostics (named "<node>: <name>", e.g. "mavros: GPS"): status() -> (level,
+        message, [(key, value)]), level a diagnostic_msgs/DiagnosticStatus level."""
         self.diagnostics.append((name, status))
 
     def _connection_status(self):

@@ -1,5 +1,5 @@
 """mavros's /diagnostics: a DiagnosticArray every 1.0 or 1.5 s as mavros's updater sends it, a status per
-part ("mavros: <name>").
+part named after the node as diagnostic_updater names it ("mavros: <name>", "uav3/mavros: <name>").
 
 The statuses come from the plugins through Bridge.diagnostic(name, status): the FCU
 connection (packets received, dropped by sequence number, parse errors), the heartbeat,
@@ -60,6 +60,8 @@ class Diagnostics:
     def __init__(self, bridge):
         self.bridge = bridge
         self.hardware_id = bridge.cfg['fcu_url']
+        # diagnostic_updater names a status after its node: "mavros: GPS", "uav3/mavros: GPS" in a fleet
+        self.prefix = bridge.node_name()[1:] + ': '
         self.pub = bridge.publisher('/diagnostics', DiagnosticArray)
         self.next_s = None
         bridge.every(CHECK_S, self._publish)
@@ -81,7 +83,7 @@ class Diagnostics:
         array = DiagnosticArray()
         array.header.stamp = self.bridge.now()
         for name, (level, message, values) in statuses:
-            array.status.append(DiagnosticStatus(level=level, name='mavros: ' + name, message=message,
+            array.status.append(DiagnosticStatus(level=level, name=self.prefix + name, message=message,
                                                  hardware_id=self.hardware_id,
                                                  values=[KeyValue(key=k, value=str(v)) for k, v in values]))
         self.pub.publish(array)

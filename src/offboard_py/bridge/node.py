@@ -75,6 +75,10 @@ class RospyEndpoints:
     def is_shutdown():
         return rospy.is_shutdown()
 
+    @staticmethod
+    def node_name():
+        return rospy.get_name()
+
 
 def open_links(cfg):
     """The FCU link (signed if configured) and the GCS link or None, from the checked parameters."""
