@@ -16,6 +16,7 @@ bench/sim_fleet.py'`. The GCS links send to 14550 as PX4 SITL's do, to nobody he
 """
 
 import argparse
+import json
 import os
 import select
 import socket
@@ -31,6 +32,9 @@ from offboard_py.dialect import mavlink  # noqa: E402
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW  # noqa: E402
 from proc_stats import cpu_split_seconds, wakeups  # noqa: E402  (bench/ is not a package)
 
+with open(os.path.join(os.path.dirname(HERE), 'reference', 'px4-sitl-census.json')) as census:
+    # what real PX4 SITL sends on its onboard link a second, all its streams together (404)
+    PX4_ONBOARD_DATAGRAMS_S = sum(json.load(census)['rates_hz'].values())
 SETPOINT_PERIOD_S = 0.05     # the tutorial's 20 Hz
 OFFBOARD_AFTER_S = 12.0      # the simulated PX4 is ready after its 4 s and the stream is steady
 MAV_MODE_FLAG_SAFETY_ARMED = mavlink.MAV_MODE_FLAG_SAFETY_ARMED
@@ -54,6 +58,7 @@ class Bridges:
             mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_ONBOARD_COMPUTER)
             self.links.append((sock, mav, ('127.0.0.1', sitl_ports.fcu_port(i)), sitl_ports.system_id(i)))
         self.base_mode = {}
+        self.received = [0] * vehicles  # datagrams from each vehicle's onboard link
         self.poller = select.poll()
         for sock, *_ in self.links:
             self.poller.register(sock.fileno(), select.POLLIN)
@@ -67,6 +72,7 @@ class Bridges:
                     data = sock.recv(2048)
                 except BlockingIOError:
                     break
+                self.received[i] += 1
                 # one message a datagram: a HEARTBEAT (id 0, bytes 7-9 of the header) carries base_mode at
                 # payload byte 6; read in place, as the driver must cost the machine little beside the simulator
                 if (len(data) > HB_BASE_MODE and data[0] == wire.MAGIC_V2 and data[7:wire.HEADER_V2] == b'\0\0\0'):
@@ -124,13 +130,15 @@ def run_once(args):
             bridges.tick(tick, elapsed, OFFBOARD_AFTER_S <= elapsed < args.warmup)
             tick, next_s = tick + 1, next_s + SETPOINT_PERIOD_S
             if window is None and elapsed >= args.warmup:
-                window = now, cpu_split_seconds(sim.pid), wakeups(sim.pid)
+                window = now, cpu_split_seconds(sim.pid), wakeups(sim.pid), list(bridges.received)
             elif window is not None and now - window[0] >= args.duration:
                 seconds = now - window[0]
                 user, system = (b - a for a, b in zip(window[1], cpu_split_seconds(sim.pid)))
                 armed = sum(bridges.armed(i) for i in range(args.vehicles))
+                rates = sorted((b - a) / seconds for a, b in zip(window[3], bridges.received))
                 return dict(armed=armed, cpu=(user + system) / seconds * 100, user=user / seconds * 100,
-                            system=system / seconds * 100, wakeups=(wakeups(sim.pid) - window[2]) / seconds)
+                            system=system / seconds * 100, wakeups=(wakeups(sim.pid) - window[2]) / seconds,
+                            received=(rates[0], rates[len(rates) // 2]))
             if elapsed > args.warmup + args.duration + 30:
                 sys.exit('sim_fleet: no measurement %.0f s after the start' % elapsed)
     finally:
@@ -154,15 +162,16 @@ def main():
         parser.error('--vehicles must be 1..39 (the instances with ports of their own)')
     if args.warmup < OFFBOARD_AFTER_S + 8.0:
         parser.error('--warmup must leave the vehicles 8 s to arm after %.0f s' % OFFBOARD_AFTER_S)
-    print('| run | vehicles | armed | simulator CPU (% of one core) | user / system | a vehicle | wake-ups/s |')
-    print('|---|---|---|---|---|---|---|')
+    print('| run | vehicles | armed | simulator CPU (%% of one core) | user / system | a vehicle | wake-ups/s '
+          '| datagrams/s a vehicle, least / median (PX4 SITL: %.0f) |' % PX4_ONBOARD_DATAGRAMS_S)
+    print('|---|---|---|---|---|---|---|---|')
     failed = False
     for run in range(1, args.runs + 1):
         r = run_once(args)
         failed |= r['armed'] < args.vehicles
-        print('| %d | %d | %d | %.1f | %.1f / %.1f | %.3f | %.0f |' % (
+        print('| %d | %d | %d | %.1f | %.1f / %.1f | %.3f | %.0f | %.0f / %.0f |' % (
             run, args.vehicles, r['armed'], r['cpu'], r['user'], r['system'], r['cpu'] / args.vehicles,
-            r['wakeups']), flush=True)
+            r['wakeups'], *r['received']), flush=True)
     return 1 if failed else 0
 
 

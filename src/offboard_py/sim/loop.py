@@ -5,6 +5,7 @@ import logging
 import select
 
 log = logging.getLogger('offboard_py.sim')  # the simulated PX4's one log
+STALL_S = 0.25  # wall seconds behind its clock: the loop skips the steps missed and goes on from now
 
 
 def run_together(sims, duration_s=None):
@@ -39,6 +40,7 @@ def run_together(sims, duration_s=None):
     if speed != 1.0:
         log.info('simulated time at %gx real time', speed)
     next_s = clock()  # the schedule's time of the next step
+    stalls = steps_skipped = 0
     end_s = None if duration_s is None else next_s + duration_s
     try:
         while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):
@@ -51,10 +53,16 @@ def run_together(sims, duration_s=None):
                 sim._send_deferred(now)
             if now < wake_s:
                 continue
-            if now - next_s > 0.25 * speed:  # stalled a quarter second (suspended, overloaded): resynchronise
-                if speed != 1.0:
-                    log.warning('the simulator fell %.2f s behind its clock at %gx: this machine cannot keep up '
-                                'at that speed', now - next_s, speed)
+            if now - next_s > STALL_S * speed:  # stalled (suspended, overloaded): resynchronise
+                skipped = int((now - next_s) / period)
+                stalls, steps_skipped = stalls + 1, steps_skipped + skipped
+                if stalls in (1, 10, 100, 1000) or stalls % 10000 == 0:
+                    log.warning('the simulator fell %.2f s behind its clock%s and skipped %d steps of its %d '
+                                'vehicle(s), their streams with them (%d times so far, %d steps): this machine '
+                                'cannot keep up%s', now - next_s, ' at %gx' % speed if speed != 1.0 else '',
+                                skipped, len(sims), stalls, steps_skipped,
+                                ' at that speed' if speed != 1.0 else ' with %d vehicles in one process' % len(sims)
+                                if len(sims) > 1 else '')
                 for sim in sims:
                     if sim.running:
                         sim.step(period)
@@ -80,3 +88,6 @@ def run_together(sims, duration_s=None):
                         by_fd[fd].receive()
     finally:
         poller.close()
+        if stalls:
+            log.warning('the simulator skipped %d steps of each vehicle, their streams with them, in %d stalls '
+                        '(each more than %g s of wall time behind its clock)', steps_skipped, stalls, STALL_S)
