@@ -10,7 +10,7 @@ import pytest
 from offboard_py import wire
 from offboard_py.dialect import mavlink
 from offboard_py.mavlink_link import MavlinkLink
-from offboard_py.sim.main import SetpointLog
+from offboard_py.sim.main import SetpointLog, StallLog
 from offboard_py.simtime import SimClock
 
 LATE_S = 0.3  # how long the datagram waits in the socket before the link reads it
@@ -77,3 +77,17 @@ def test_setpoint_log_puts_the_arrival_on_the_simulated_clock():
     arrival, boot_ms, read = log.rows[0]
     assert read == int(400.0 * 1e9)
     assert 40e6 <= read - arrival < 40e6 + 4 * 50e6
+
+
+def test_stall_log_says_when_how_far_behind_and_how_many_steps_on_the_setpoint_logs_clock(tmp_path):
+    log = StallLog()
+    before = time.time_ns()
+    log.record(1.0, 0.8125, 81)
+    log.write(str(tmp_path / 'stalls-7.txt'))
+    [(when, behind_ms, steps)] = [line.split() for line in open(str(tmp_path / 'stalls-7.txt'))]
+    assert before <= int(when) <= time.time_ns() and (behind_ms, steps) == ('812.5', '81')
+    StallLog().write(str(tmp_path / 'stalls-8.txt'))
+    assert open(str(tmp_path / 'stalls-8.txt')).read() == '', 'written when nothing stalled: none, not unknown'
+    simulated = StallLog(SimClock(4.0, monotonic=lambda: 100.0))
+    simulated.record(400.0, 1.2, 120)
+    assert simulated.rows[0][0] == int(400.0 * 1e9)

@@ -53,3 +53,14 @@ def test_bridge_mavros_with_packed_datagrams_is_refused(benchmark, monkeypatch, 
         benchmark.main()
     assert exit_.value.code == 2
     assert 'real mavros reads at most 296 bytes of a datagram' in capsys.readouterr().err
+
+
+def test_steps_skipped_counts_the_stalls_inside_the_window_only(benchmark, tmp_path):
+    """A row whose simulated PX4 fell behind its clock and skipped steps in the window does not hold the
+    bar: the count comes from sim_px4.py's stalls-N.txt (time ns, ms behind, steps)."""
+    (tmp_path / 'stalls-3.txt').write_text('100 300.0 30\n200 810.5 81\n300 260.0 26\n')
+    assert benchmark.steps_skipped(str(tmp_path), 3, 150, 300) == 81 + 26
+    assert benchmark.steps_skipped(str(tmp_path), 3, 301, 400) == 0
+    (tmp_path / 'stalls-4.txt').write_text('')
+    assert benchmark.steps_skipped(str(tmp_path), 4, 0, 400) == 0
+    assert benchmark.steps_skipped(str(tmp_path), 5, 0, 400) is None, 'no file: not known, not zero'

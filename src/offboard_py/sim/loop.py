@@ -8,7 +8,7 @@ log = logging.getLogger('offboard_py.sim')  # the simulated PX4's one log
 STALL_S = 0.25  # wall seconds behind its clock: the loop skips the steps missed and goes on from now
 
 
-def run_together(sims, duration_s=None):
+def run_together(sims, duration_s=None, on_stall=None):
     """Run simulated PX4s in one loop on their (shared) clock until each is stopped, or for duration_s
     of its seconds: a fleet in one process wakes once for all its vehicles, where a process each wakes
     once each (`sim_px4.py --vehicles N`).
@@ -19,7 +19,10 @@ def run_together(sims, duration_s=None):
     sends them (real mavros reads at most 296 bytes of a datagram). A wake-up costs more than a sendto
     (on the development machine the first sendto after 20 ms asleep takes 55-65 us, the next 8 us), so
     two steps share one: every message keeps its own step's time and values, and the first step's
-    messages of a pair leave one step (10 ms) after their time_boot_ms."""
+    messages of a pair leave one step (10 ms) after their time_boot_ms.
+
+    Fallen more than STALL_S (wall) behind the clock, the loop skips the steps it missed, and their
+    streams, and goes on from now: it says so, and calls on_stall(now, seconds behind, steps skipped)."""
     first = sims[0]
     clock, period, batch = first.clock, 1.0 / first.rate_hz, first.steps_per_wakeup
     if any(sim.clock is not clock or sim.rate_hz != first.rate_hz or sim.steps_per_wakeup != batch for sim in sims):
@@ -56,6 +59,8 @@ def run_together(sims, duration_s=None):
             if now - next_s > STALL_S * speed:  # stalled (suspended, overloaded): resynchronise
                 skipped = int((now - next_s) / period)
                 stalls, steps_skipped = stalls + 1, steps_skipped + skipped
+                if on_stall is not None:
+                    on_stall(now, now - next_s, skipped)
                 if stalls in (1, 10, 100, 1000) or stalls % 10000 == 0:
                     log.warning('the simulator fell %.2f s behind its clock%s and skipped %d steps of its %d '
                                 'vehicle(s), their streams with them (%d times so far, %d steps): this machine '

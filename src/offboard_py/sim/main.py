@@ -52,6 +52,25 @@ class SetpointLog:
             out.write(''.join('%d %d %d\n' % row for row in self.rows))
 
 
+class StallLog:
+    """For the benchmark: each time the loop fell behind its clock and skipped steps (loop.STALL_S), when
+    (ns, on the setpoint log's clock), how far behind (ms) and how many steps of each vehicle, written at
+    exit beside the setpoint log (stalls-<instance>.txt, empty when none): a vehicle whose steps were
+    skipped did not send PX4's stream meanwhile, whatever the setpoints' arrival says."""
+
+    def __init__(self, clock=None):
+        self.rows = []
+        self.simulated = None if clock is None or clock.real_time else clock
+
+    def record(self, _now, behind_s, skipped):
+        now_ns = time.time_ns() if self.simulated is None else int(self.simulated.now() * 1e9)
+        self.rows.append((now_ns, behind_s * 1e3, skipped))
+
+    def write(self, path):
+        with open(path, 'w') as out:
+            out.write(''.join('%d %.1f %d\n' % row for row in self.rows))
+
+
 def _home(text):
     try:
         lat, lon, alt = (float(v) for v in text.split(','))
@@ -141,7 +160,8 @@ def parser():
     p.add_argument('--setpoint-log', metavar='DIR',
                    help='at exit, write DIR/setpoints-N.txt: arrival time (ns, the kernel\'s receive time), '
                         'time_boot_ms and read time (ns, when the simulator handled it) of each accepted '
-                        'setpoint (for the benchmark)')
+                        'setpoint, and DIR/stalls-N.txt: when the simulator fell behind its clock and '
+                        'skipped steps (for the benchmark)')
     p.add_argument('--signing-key', metavar='FILE',
                    help='MAVLink 2 signing key file in PX4\'s format (32 bytes, optionally + 8-byte timestamp): '
                         'sign everything sent and drop unsigned or badly signed input, as PX4 with a key does')
@@ -193,6 +213,7 @@ def main(argv=None):
             for sim in sims:
                 sim.close_links()
     setpoint_logs = []
+    stall_log = StallLog(clock) if args.setpoint_log else None
     for instance, sim in enumerate(sims, args.instance):
         if args.ideal:
             sim.flight.set_ideal()
@@ -211,10 +232,13 @@ def main(argv=None):
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
     try:
-        run_together(sims)
+        run_together(sims, on_stall=None if stall_log is None else stall_log.record)
     finally:
         for sim in sims:
             sim.close()
         for setpoint_log in setpoint_logs:
             setpoint_log.write()
+        if stall_log is not None:  # the loop's stalls are every vehicle's of this process
+            for instance in range(args.instance, args.instance + len(sims)):
+                stall_log.write(os.path.join(args.setpoint_log, 'stalls-%d.txt' % instance))
     return 0
