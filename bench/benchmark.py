@@ -436,7 +436,9 @@ def _measure(args, scale, logdir):
              '| latency ROS publish -> FCU p50 / p99 / max | %s / %s / %s ms | p99 <= 2 | %s |'
              % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2), met(within(lat['p99'], 2.0))),
              '| simulator read lag (kernel arrival -> handled) p50 / p99 / max | %s / %s / %s ms | | |'
-             % tuple(fmt(single['sim_read_lag_ms'][k], 2) for k in ('p50', 'p99', 'max'))]
+             % tuple(fmt(single['sim_read_lag_ms'][k], 2) for k in ('p50', 'p99', 'max')),
+             '| simulator steps skipped (fallen %.2f s behind its clock) | %s | 0 | %s |'
+             % (STALL_S, fmt(single['sim_steps_skipped'], 0), met(single['sim_steps_skipped'] == 0))]
     ros_side = 'bridge' if args.bridge == 'ours' else 'real mavros'
     for role in ('node', 'bridge', 'sim'):
         lines.append('| %s: CPU (%% of one core), RSS | %s %%, %s MB | | |'
