@@ -54,9 +54,10 @@ class SetpointLog:
 
 class StallLog:
     """For the benchmark: each time the loop fell behind its clock and skipped steps (loop.STALL_S), when
-    (ns, on the setpoint log's clock), how far behind (ms) and how many steps of each vehicle, written at
-    exit beside the setpoint log (stalls-<instance>.txt, empty when none): a vehicle whose steps were
-    skipped did not send PX4's stream meanwhile, whatever the setpoints' arrival says."""
+    (ns, on the setpoint log's clock), how far behind (ms of the simulator's clock) and how many steps of
+    each vehicle, written at exit beside the setpoint log (stalls-<instance>.txt, empty when none): a
+    vehicle whose steps were skipped did not send PX4's stream meanwhile, whatever the setpoints' arrival
+    says."""
 
     def __init__(self, clock=None):
         self.rows = []
