@@ -82,12 +82,12 @@ def test_setpoint_log_puts_the_arrival_on_the_simulated_clock():
 def test_stall_log_says_when_how_far_behind_and_how_many_steps_on_the_setpoint_logs_clock(tmp_path):
     log = StallLog()
     before = time.time_ns()
-    log.record(1.0, 0.8125, 81)
+    log.record(0.8125, 81)
     log.write(str(tmp_path / 'stalls-7.txt'))
     [(when, behind_ms, steps)] = [line.split() for line in open(str(tmp_path / 'stalls-7.txt'))]
     assert before <= int(when) <= time.time_ns() and (behind_ms, steps) == ('812.5', '81')
     StallLog().write(str(tmp_path / 'stalls-8.txt'))
     assert open(str(tmp_path / 'stalls-8.txt')).read() == '', 'written when nothing stalled: none, not unknown'
     simulated = StallLog(SimClock(4.0, monotonic=lambda: 100.0))
-    simulated.record(400.0, 1.2, 120)
+    simulated.record(1.2, 120)
     assert simulated.rows[0][0] == int(400.0 * 1e9)

@@ -22,7 +22,7 @@ def run_together(sims, duration_s=None, on_stall=None):
     messages of a pair leave one step (10 ms) after their time_boot_ms.
 
     Fallen more than STALL_S (wall) behind the clock, the loop skips the steps it missed, and their
-    streams, and goes on from now: it says so, and calls on_stall(now, seconds behind, steps skipped)."""
+    streams, and goes on from now: it says so, and calls on_stall(seconds behind, steps skipped)."""
     first = sims[0]
     clock, period, batch = first.clock, 1.0 / first.rate_hz, first.steps_per_wakeup
     if any(sim.clock is not clock or sim.rate_hz != first.rate_hz or sim.steps_per_wakeup != batch for sim in sims):
@@ -44,6 +44,8 @@ def run_together(sims, duration_s=None, on_stall=None):
         log.info('simulated time at %gx real time', speed)
     next_s = clock()  # the schedule's time of the next step
     stalls = steps_skipped = 0
+    at_speed = ' at %gx' % speed if speed != 1.0 else ''
+    why = ' at that speed' if speed != 1.0 else ' with %d vehicles in one process' % len(sims) if len(sims) > 1 else ''
     end_s = None if duration_s is None else next_s + duration_s
     try:
         while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):
@@ -60,14 +62,12 @@ def run_together(sims, duration_s=None, on_stall=None):
                 skipped = int((now - next_s) / period)
                 stalls, steps_skipped = stalls + 1, steps_skipped + skipped
                 if on_stall is not None:
-                    on_stall(now, now - next_s, skipped)
+                    on_stall(now - next_s, skipped)
                 if stalls in (1, 10, 100, 1000) or stalls % 10000 == 0:
                     log.warning('the simulator fell %.2f s behind its clock%s and skipped %d steps of its %d '
                                 'vehicle(s), their streams with them (%d times so far, %d steps): this machine '
-                                'cannot keep up%s', now - next_s, ' at %gx' % speed if speed != 1.0 else '',
-                                skipped, len(sims), stalls, steps_skipped,
-                                ' at that speed' if speed != 1.0 else ' with %d vehicles in one process' % len(sims)
-                                if len(sims) > 1 else '')
+                                'cannot keep up%s', now - next_s, at_speed, skipped, len(sims), stalls,
+                                steps_skipped, why)
                 for sim in sims:
                     if sim.running:
                         sim.step(period)

@@ -23,53 +23,58 @@ from offboard_py.sim.param_store import ParamRejected
 VEHICLE_SPACING_M = 3.0  # --vehicles: north of each other, as multi_uav.launch spawns them
 
 
-class SetpointLog:
-    """For the benchmark: each accepted setpoint's arrival (ns), time_boot_ms, and when the simulator read
-    it (ns), kept in memory and written at exit, so the receive path only appends a row. The arrival is the
-    kernel's receive time of its datagram (MavlinkLink.stamp_arrivals): the stream as it reached the FCU,
-    which is what PX4's receive thread, blocked on the socket, sees of it. The read time is when this
-    process got to it, later by however long a busy simulator took; the benchmark reports that lag on its
-    own. Where the kernel gives no stamp, the arrival is the read time. Times are on ROS's clock: Unix
-    time in real time, the simulated clock (ns) at any other speed."""
+class _BenchLog:
+    """Rows for the benchmark, kept in memory and written at exit (to `path`, or the one given then).
+    Times are on ROS's clock: Unix time in real time, the simulated clock (ns) at any other speed."""
 
-    def __init__(self, path, clock=None):
+    row_format = ''
+
+    def __init__(self, path=None, clock=None):
         self.path, self.rows = path, []
         self.simulated = None if clock is None or clock.real_time else clock
+
+    def clock_ns(self, wall_ns):
+        """Now on the log's clock, given the wall's now (Unix ns)."""
+        return wall_ns if self.simulated is None else int(self.simulated.now() * 1e9)
+
+    def write(self, path=None):
+        with open(path or self.path, 'w') as out:
+            out.write(''.join(self.row_format % row for row in self.rows))
+
+
+class SetpointLog(_BenchLog):
+    """For the benchmark: each accepted setpoint's arrival (ns), time_boot_ms, and when the simulator read
+    it (ns), so the receive path only appends a row. The arrival is the kernel's receive time of its
+    datagram (MavlinkLink.stamp_arrivals): the stream as it reached the FCU, which is what PX4's receive
+    thread, blocked on the socket, sees of it. The read time is when this process got to it, later by
+    however long a busy simulator took; the benchmark reports that lag on its own. Where the kernel gives
+    no stamp, the arrival is the read time."""
+
+    row_format = '%d %d %d\n'
 
     def record(self, msg, arrival_ns=None):
         """msg: the setpoint; arrival_ns: its datagram's kernel receive time (Unix ns) or None."""
         now_ns = time.time_ns()
         if arrival_ns is None:
             arrival_ns = now_ns
-        if self.simulated is None:
-            self.rows.append((arrival_ns, msg.time_boot_ms, now_ns))
-        else:
-            read_ns = int(self.simulated.now() * 1e9)
-            self.rows.append((read_ns - int((now_ns - arrival_ns) * self.simulated.speed), msg.time_boot_ms, read_ns))
-
-    def write(self):
-        with open(self.path, 'w') as out:
-            out.write(''.join('%d %d %d\n' % row for row in self.rows))
+        read_ns = self.clock_ns(now_ns)
+        speed = 1.0 if self.simulated is None else self.simulated.speed
+        self.rows.append((read_ns - int((now_ns - arrival_ns) * speed), msg.time_boot_ms, read_ns))
 
 
-class StallLog:
+class StallLog(_BenchLog):
     """For the benchmark: each time the loop fell behind its clock and skipped steps (loop.STALL_S), when
-    (ns, on the setpoint log's clock), how far behind (ms of the simulator's clock) and how many steps of
-    each vehicle, written at exit beside the setpoint log (stalls-<instance>.txt, empty when none): a
-    vehicle whose steps were skipped did not send PX4's stream meanwhile, whatever the setpoints' arrival
-    says."""
+    (ns), how far behind (ms of the simulator's clock) and how many steps of each vehicle, written beside
+    the setpoint log (stalls-<instance>.txt, empty when none): a vehicle whose steps were skipped did not
+    send PX4's stream meanwhile, whatever the setpoints' arrival says."""
+
+    row_format = '%d %.1f %d\n'
 
     def __init__(self, clock=None):
-        self.rows = []
-        self.simulated = None if clock is None or clock.real_time else clock
+        super().__init__(None, clock)  # the path is given at write(): the same stalls for each vehicle
 
-    def record(self, _now, behind_s, skipped):
-        now_ns = time.time_ns() if self.simulated is None else int(self.simulated.now() * 1e9)
-        self.rows.append((now_ns, behind_s * 1e3, skipped))
-
-    def write(self, path):
-        with open(path, 'w') as out:
-            out.write(''.join('%d %.1f %d\n' % row for row in self.rows))
+    def record(self, behind_s, skipped):
+        self.rows.append((self.clock_ns(time.time_ns()), behind_s * 1e3, skipped))
 
 
 def _home(text):
