@@ -30,7 +30,7 @@ from mavros_msgs.msg import State
 from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
-from offboard_py.stack import BRIDGES, SIM_PROCESSES, rospack_find
+from offboard_py.stack import BRIDGES, SIM_PROCESSES, VEHICLES_PER_SIM, rospack_find
 from offboard_py.sim.loop import STALL_S
 from offboard_py.tools.demo import launch_failure
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
@@ -96,7 +96,6 @@ def descends_from(pid, ancestor):
     return False
 
 
-ALL = 'all'  # processes()'s vehicle for a process that serves them all
 
 
 # What each process of the stack is, by its command line. The ROS side is the 'bridge' role whichever it is:
@@ -109,8 +108,23 @@ def role_of(cmdline):
     return next((role for role, key in ROLES if key in cmdline), None)
 
 
+def vehicles_served(cmdline):
+    """The instances a shared simulator process serves (multi_uav.launch sim_process:=one: sim_px4.py -i K
+    --vehicles M serves K .. K+M-1), from its command line (bytes, arguments joined by spaces)."""
+    argv = cmdline.split()
+
+    def value(names, default):
+        for k, word in enumerate(argv[:-1]):
+            if word in names:
+                return int(argv[k + 1])
+        return default
+    first = value((b'-i', b'--instance'), 0)
+    return range(first, first + value((b'--vehicles',), 1))
+
+
 def processes(launch_pid):
-    """pid of each process of the stack started by the launch launch_pid, by (vehicle, role)."""
+    """pid of each process of the stack started by the launch launch_pid, by (vehicle, role); a simulator
+    process shared by several vehicles by (the range of vehicles it serves, 'sim')."""
     found = {}
     for pid in filter(str.isdigit, os.listdir('/proc')):
         if not descends_from(pid, launch_pid):
@@ -125,8 +139,8 @@ def processes(launch_pid):
         ns = next((e.split(b'=', 1)[1].decode() for e in env if e.startswith(b'ROS_NAMESPACE=')), '')
         if role and ns.strip('/').startswith('uav'):
             found[(int(ns.strip('/')[3:]), role)] = int(pid)
-        elif role == 'sim':  # multi_uav.launch sim_process:=one: one simulator for every vehicle
-            found[(ALL, 'sim')] = int(pid)
+        elif role == 'sim':  # multi_uav.launch sim_process:=one: a simulator for several vehicles
+            found[(vehicles_served(text), 'sim')] = int(pid)
         elif b'sim_clock.py' in text:  # simulated time: the /clock publisher, counted with vehicle 0
             found[(0, 'clock')] = int(pid)
     return found
@@ -175,7 +189,7 @@ def forget_stale_nodes(prefixes=('/uav', '/sim_clock')):
 
 
 def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None, pack_datagrams=False,
-        sim_process='each', bridge='ours'):
+        sim_process='each', bridge='ours', vehicles_per_sim=VEHICLES_PER_SIM):
     """Fly n vehicles to 2 m, hover duration_s, and measure. At another speed than 1 the stack runs in
     simulated time: the hover lasts duration_s simulated seconds and the stream is timed on that clock
     (the simulator logs arrivals on it, the node stamps on /clock). `beside`: what else runs meanwhile
@@ -183,7 +197,8 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
     after the measurement and before the stack stops (it may wait, bounded, for what it watches).
     `pack_datagrams`: the simulator packs its messages into few datagrams (its --pack-datagrams, NOT PX4's
     framing); by default it frames one message a datagram, as PX4 does. `bridge`: the ROS side, ours or real
-    mavros (multi_uav.launch bridge:=mavros), measured in the 'bridge' role either way."""
+    mavros (multi_uav.launch bridge:=mavros), measured in the 'bridge' role either way. `vehicles_per_sim`: with
+    sim_process 'one', at most that many vehicles share a simulator process."""
     clock = SimClock(speed)
     startup_timeout_s = startup_timeout_s or startup_bound_s(n)
     # arrivals as the simulator logs them: Unix ns in real time, simulated ns otherwise
@@ -191,7 +206,8 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
     launch_log = open(os.path.join(logdir, 'launch-%d-%g.log' % (n, speed)), 'w')
     launch = subprocess.Popen(['roslaunch', 'offboard_py', 'multi_uav.launch', 'n:=%d' % n, 'log_output:=log',
                                'sim_args:=--setpoint-log %s%s' % (logdir, ' --pack-datagrams' if pack_datagrams else ''),
-                               'speed:=%g' % speed, 'sim_process:=%s' % sim_process, 'bridge:=%s' % bridge],
+                               'speed:=%g' % speed, 'sim_process:=%s' % sim_process, 'bridge:=%s' % bridge,
+                               'vehicles_per_sim:=%d' % vehicles_per_sim],
                               stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
     stamps = [] if latency else None
     watches = [Watch('/uav%d' % i, clock.now(), stamps if i == 0 else None, clock) for i in range(n)]
@@ -222,10 +238,10 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
         cpu = {k: (cpu_seconds(p) - cpu0[k]) / elapsed_s * 100.0 for k, p in pids.items()}
         woken = {k: (wakeups(p) - woken0[k]) / elapsed_s for k, p in pids.items()}  # a second, all threads
         rss = {k: rss_mb(p) for k, p in pids.items()}
-        for shares in (cpu, woken, rss):  # a process that serves every vehicle: an equal share each
-            if (ALL, 'sim') in shares:
-                shared = shares.pop((ALL, 'sim'))
-                shares.update({(i, 'sim'): shared / n for i in range(n)})
+        for shares in (cpu, woken, rss):  # a process that serves several vehicles: an equal share each
+            for served, role in [key for key in shares if isinstance(key[0], range)]:
+                shared = shares.pop((served, role))
+                shares.update({(i, role): shared / len(served) for i in served})
         window_end = now_ns()
         if beside is not None:
             beside.finish(watches)
@@ -304,7 +320,11 @@ def main():
                         'simulated seconds beside real time (default 5, what ./run test uses; 1: skip)')
     p.add_argument('--sim-process', choices=tuple(SIM_PROCESSES), default='each',
                    help='the scaling rows\' simulated vehicles: a process each (each, the default, as PX4 SITL '
-                        'instances) or one process and loop for all (one: multi_uav.launch sim_process:=one)')
+                        'instances) or shared processes, one loop for up to --vehicles-per-sim vehicles each (one: '
+                        'multi_uav.launch sim_process:=one)')
+    p.add_argument('--vehicles-per-sim', type=int, default=VEHICLES_PER_SIM, metavar='K',
+                   help='--sim-process one: at most K vehicles a simulator process (default %d, multi_uav.launch\'s '
+                        'vehicles_per_sim)' % VEHICLES_PER_SIM)
     p.add_argument('--pack-datagrams', action='store_true',
                    help="NOT PX4's framing: the simulator packs its messages into as few datagrams as fit 1400 bytes "
                         "(its --pack-datagrams); by default it sends one MAVLink message a datagram, as PX4 does")
@@ -329,6 +349,8 @@ def main():
         p.error(str(err))
     if not scale or min(scale) < 1 or max(scale) > 99 or args.duration <= 1 or args.scale_duration <= 1:
         p.error('--scale values must be 1..99 and durations above 1 s')
+    if args.vehicles_per_sim < 1:
+        p.error('--vehicles-per-sim must be 1 or more, got %d' % args.vehicles_per_sim)
     logdir = tempfile.mkdtemp(prefix='offboard_bench_')
     core = start_master(logdir, p.error)
     rospy.init_node('benchmark', anonymous=True, disable_signals=True)
@@ -411,7 +433,7 @@ def _measure_speed(args, logdir, single):
 def _measure(args, scale, logdir):
     result = {'machine': machine(),
               'command': ' '.join(sys.argv), 'framing': framing(args.pack_datagrams), 'sim_process': args.sim_process,
-              'bridge': args.bridge}
+              'vehicles_per_sim': args.vehicles_per_sim, 'bridge': args.bridge}
     print('simulator framing: %s' % result['framing'], flush=True)
     print('ROS side: %s' % BRIDGES[args.bridge], flush=True)
     print('one vehicle, %.0f s of hover ...' % args.duration, flush=True)
@@ -470,7 +492,7 @@ def _measure(args, scale, logdir):
         print('%d vehicles, %.0f s of hover ...' % (n, args.scale_duration), flush=True)
         try:
             vehicles = run(n, args.scale_duration, logdir, pack_datagrams=args.pack_datagrams,
-                           sim_process=args.sim_process, bridge=args.bridge)
+                           sim_process=args.sim_process, bridge=args.bridge, vehicles_per_sim=args.vehicles_per_sim)
         except RuntimeError as err:
             steps.append({'n': n, 'error': str(err)})
             print('  %s' % err, flush=True)
@@ -498,9 +520,10 @@ def _measure(args, scale, logdir):
         largest = n
     result['scaling'] = steps
     result['largest_n_holding_bar'] = largest
-    table = ['simulator framing: %s; simulated vehicles: %s (sim_process:=%s); ROS side: %s (bridge:=%s)'
-             % (result['framing'], SIM_PROCESSES[args.sim_process], args.sim_process, BRIDGES[args.bridge],
-                args.bridge), '',
+    table = ['simulator framing: %s; simulated vehicles: %s (sim_process:=%s%s); ROS side: %s (bridge:=%s)'
+             % (result['framing'], SIM_PROCESSES[args.sim_process], args.sim_process,
+                ' vehicles_per_sim:=%d' % args.vehicles_per_sim if args.sim_process == 'one' else '',
+                BRIDGES[args.bridge], args.bridge), '',
              '| vehicles | worst rate (Hz) | worst p99 (ms) | worst max (ms) | total CPU (% of one core) '
              '| per vehicle: node / bridge / sim (%) | per vehicle, all (%) | bridge / real mavros | bar '
              '| simulator read lag p99 (ms) | simulator steps skipped | wake-ups/s a vehicle: node / bridge / sim |',
@@ -523,7 +546,7 @@ def _measure(args, scale, logdir):
                  'skipped a step (fallen over %.2f s behind its clock, it skips the steps missed and their streams)'
                  % (BAR_P99_MS, BAR_MAX_MS, STALL_S))
     table.append('wake-ups: context switches of all a process\'s threads a second (a thread that sleeps again after '
-                 'a wake-up counts one; a preemption counts one), the one simulator process shared out equally')
+                 'a wake-up counts one; a preemption counts one), a shared simulator process\'s shared out equally among its vehicles')
     table.append('simulator read lag: how long after the kernel\'s arrival the simulator handled a setpoint (worst '
                  'vehicle); a real PX4 reads its socket in a thread of its own')
     table.append('bridge / real mavros: the bridge\'s CPU over real mavros 1.21\'s recorded %.2f-%.2f %% of one core '

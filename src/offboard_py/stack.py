@@ -25,15 +25,24 @@ def describe(fcu, bridge):
     return '%s + %s' % (BRIDGES.get(bridge, bridge), FCUS.get(fcu, fcu))
 
 
-SIM_PROCESSES = {'each': 'a simulator process a vehicle', 'one': 'one simulator process for all the vehicles'}
+SIM_PROCESSES = {'each': 'a simulator process a vehicle',
+                 'one': 'shared simulator processes, one loop for up to vehicles_per_sim vehicles each'}
+# multi_uav.launch's vehicles_per_sim: a simulator process runs on one core, and on the 2-core development
+# machine one process of 32 vehicles fell behind its clock beside the fleet's ROS side where two of 16 did not
+# (bench/results/2026-11-26-fleet-stalls.md)
+VEHICLES_PER_SIM = 16
 
 
-def choice_errors(fcu, bridge, sim_process='each'):
-    """What is wrong with the launch arguments fcu, bridge and sim_process, one line each (none: nothing)."""
+def choice_errors(fcu, bridge, sim_process='each', vehicles_per_sim=str(VEHICLES_PER_SIM)):
+    """What is wrong with the launch arguments fcu, bridge, sim_process and vehicles_per_sim, one line each
+    (none: nothing)."""
     errors = []
     if sim_process not in SIM_PROCESSES:
         errors.append('sim_process:=%s is not a way to run the simulated vehicles: use %s'
                       % (sim_process, ' or '.join('sim_process:=%s (%s)' % kv for kv in SIM_PROCESSES.items())))
+    if not (vehicles_per_sim.isdigit() and int(vehicles_per_sim) > 0):
+        errors.append('vehicles_per_sim:=%s is not a number of vehicles: give a whole number from 1 (default %d)'
+                      % (vehicles_per_sim, VEHICLES_PER_SIM))
     if fcu not in FCUS:
         errors.append('fcu:=%s is not a flight controller this launch can start: use %s'
                       % (fcu, ' or '.join('fcu:=%s (%s)' % kv for kv in FCUS.items())))
@@ -97,7 +106,8 @@ def find_real_parts(env=None, config_path=None, find_package=None):
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     given = dict(a.split(':=', 1) for a in argv if ':=' in a and not a.startswith('__'))
-    errors = choice_errors(given.get('fcu', 'sim'), given.get('bridge', 'ours'), given.get('sim_process', 'each'))
+    errors = choice_errors(given.get('fcu', 'sim'), given.get('bridge', 'ours'), given.get('sim_process', 'each'),
+                           given.get('vehicles_per_sim', str(VEHICLES_PER_SIM)))
     for line in errors:
         print('error: %s' % line, file=sys.stderr)
     return 1 if errors else 0

@@ -26,6 +26,18 @@ def test_each_process_of_the_stack_is_told_apart_by_its_command_line(benchmark, 
     assert benchmark.role_of(cmdline) == role
 
 
+@pytest.mark.parametrize('cmdline, served', [
+    (b'/usr/bin/python3 /ws/src/offboard_py/scripts/sim_px4.py -i 16 --vehicles 16 --spawn 0,48 --speed 1 '
+     b'--setpoint-log /tmp/b __name:=sim_px4_16', range(16, 32)),
+    (b'/usr/bin/python3 /ws/src/offboard_py/scripts/sim_px4.py -i 0 --vehicles 3 --spawn 0,0 __name:=sim_px4', range(3)),
+    (b'/usr/bin/python3 /ws/src/offboard_py/scripts/sim_px4.py --instance 5 __name:=sim_px4', range(5, 6)),
+])
+def test_a_shared_simulator_is_counted_for_the_vehicles_it_serves(benchmark, cmdline, served):
+    """multi_uav.launch sim_process:=one starts a simulator process for each vehicles_per_sim vehicles: each
+    process's CPU is shared among its own vehicles, not among the whole fleet."""
+    assert benchmark.vehicles_served(cmdline) == served
+
+
 def test_bridge_mavros_without_mavros_is_refused_naming_what_was_looked_for(benchmark, tmp_path, monkeypatch,
                                                                              capsys):
     monkeypatch.setenv('ROS_PACKAGE_PATH', str(tmp_path))  # a package path with no mavros on it
@@ -45,6 +57,14 @@ def test_an_unknown_ros_side_is_refused_naming_the_choices(benchmark, monkeypatc
     assert exit_.value.code == 2
     err = capsys.readouterr().err
     assert "--bridge: invalid choice: 'mavros2'" in err and "'ours'" in err and "'mavros'" in err
+
+
+def test_a_shared_simulator_of_no_vehicles_is_refused(benchmark, monkeypatch, capsys):
+    monkeypatch.setattr(sys, 'argv', ['benchmark.py', '--sim-process', 'one', '--vehicles-per-sim', '0'])
+    with pytest.raises(SystemExit) as exit_:
+        benchmark.main()
+    assert exit_.value.code == 2
+    assert '--vehicles-per-sim must be 1 or more, got 0' in capsys.readouterr().err
 
 
 def test_bridge_mavros_with_packed_datagrams_is_refused(benchmark, monkeypatch, capsys):

@@ -87,6 +87,10 @@ def test_stack_choices_and_their_errors(capsys):
     assert stack.choice_errors('sim', 'ours', 'one') == []
     assert stack.main(['sim_process:=two']) == 1
     assert 'sim_process:=two is not a way to run the simulated vehicles' in capsys.readouterr().err
+    assert stack.choice_errors('sim', 'ours', 'one', '8') == []
+    for bad in ('0', 'abc', '-2', '1.5', ''):
+        assert stack.main(['sim_process:=one', 'vehicles_per_sim:=%s' % bad]) == 1
+        assert 'vehicles_per_sim:=%s is not a number of vehicles' % bad in capsys.readouterr().err
     assert stack.describe('px4_sih', 'ours') == 'our mavros-compatible bridge + real PX4 SITL (SIH quadrotor)'
 
 
