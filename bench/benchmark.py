@@ -96,8 +96,6 @@ def descends_from(pid, ancestor):
     return False
 
 
-
-
 # What each process of the stack is, by its command line. The ROS side is the 'bridge' role whichever it is:
 # ours (mavros_bridge.py) or real mavros (its mavros_node binary, bench --bridge mavros).
 ROLES = (('sim', b'sim_px4.py'), ('bridge', b'mavros_bridge.py'), ('bridge', b'mavros_node'), ('node', b'offb_node.py'))
