@@ -1,5 +1,8 @@
 #!/usr/bin/env python3
-"""Two vehicles of multi_uav.launch at once: both take off together (~first: the first's id, 0)."""
+"""Vehicles of multi_uav.launch at once: they take off together (~first: the first's id, 0; ~count: how many,
+2; ~sim_nodes: the simulator nodes the launch must have started, e.g. its shared processes)."""
+
+import os
 
 import rospy
 import rostest
@@ -12,20 +15,49 @@ PKG = 'offboard_py'
 REQUEST_INTERVAL_S = 5.0
 
 
+def simulator_processes():
+    """{node name: the instances it serves} of each simulator process roslaunch started here (the simulated
+    PX4 speaks MAVLink, not ROS, so the master does not know it): sim_px4.py's command line, -i K --vehicles M."""
+    found = {}
+    for pid in filter(str.isdigit, os.listdir('/proc')):
+        try:
+            with open('/proc/%s/cmdline' % pid, 'rb') as f:
+                argv = f.read().decode(errors='replace').split('\0')
+        except OSError:
+            continue  # gone meanwhile
+        names = [a.split(':=', 1)[1] for a in argv if a.startswith('__name:=')]
+        if not names or not any(a.endswith('sim_px4.py') for a in argv):
+            continue
+
+        def value(option, default):
+            return int(argv[argv.index(option) + 1]) if option in argv else default
+        first = value('-i', 0)
+        found[names[0]] = list(range(first, first + value('--vehicles', 1)))
+    return found
+
+
 class TwoVehiclesTest(OffboardTestCase):
 
     def test_both_take_off(self):
-        first = rospy.get_param('~first', 0)
-        uavs = [Vehicle('uav%d/mavros' % first), Vehicle('uav%d/mavros' % (first + 1))]
+        first, count = rospy.get_param('~first', 0), rospy.get_param('~count', 2)
+        uavs = [Vehicle('uav%d/mavros' % (first + k)) for k in range(count)]
         for uav in uavs:
             self.wait_for_connected(uav, 30.0)
-        self.wait_for_offboard_and_armed(uavs, 60.0, 'both OFFBOARD and armed')
+        expected = rospy.get_param('~sim_nodes', '').split()
+        if expected:  # the simulator processes the launch was to start, by node name, and whom they serve
+            running = simulator_processes()
+            self.assertEqual(sorted(running), sorted(expected),
+                             'the simulator processes running are not the ones the launch should have started')
+            served = sorted(i for instances in running.values() for i in instances)
+            self.assertEqual(served, list(range(first, first + count)),
+                             'each vehicle should be served by exactly one simulator process: %s' % running)
+        self.wait_for_offboard_and_armed(uavs, 60.0, 'all OFFBOARD and armed')
         # within 0.1 m before the +-0.15 m hold: PX4 creeps over the last decimetre to 2 m
-        self.wait_until(lambda: all(abs(u.z() - 2.0) <= 0.1 for u in uavs), 30.0, 'both at 2 m', uavs)
-        # Each node's schedule runs from its first setpoint (it streams once it sees the connection). The two
+        self.wait_until(lambda: all(abs(u.z() - 2.0) <= 0.1 for u in uavs), 30.0, 'all at 2 m', uavs)
+        # Each node's schedule runs from its first setpoint (it streams once it sees the connection). The
         # stacks start a second or two apart in wall time, which simulated time at OFFBOARD_PY_SPEED
         # multiplies, so the arming times themselves may be 5 s apart; the time each node took from its
-        # first setpoint to armed may not: that is the same tutorial schedule on two independent stacks.
+        # first setpoint to armed may not: that is the same tutorial schedule on independent stacks.
         unseen = [u.ns for u in uavs if not u.setpoints]
         if unseen:
             self.fail('no setpoint of offb_node seen on %s/setpoint_position/local: its schedule cannot be timed'
@@ -35,9 +67,9 @@ class TwoVehiclesTest(OffboardTestCase):
         took = [a - s for a, s in zip(armed_at, started_at)]
         rospy.loginfo('first setpoint at %s, armed at %s: %s s from first setpoint to armed',
                       started_at, armed_at, ['%.2f' % t for t in took])
-        self.assertLess(abs(took[0] - took[1]), REQUEST_INTERVAL_S,
-                        'they should fly together, not one after the other: from its first setpoint to armed '
-                        '%s took %.2f s, %s %.2f s' % (uavs[0].ns, took[0], uavs[1].ns, took[1]))
+        self.assertLess(max(took) - min(took), REQUEST_INTERVAL_S,
+                        'they should fly together, not one after the other: from its first setpoint to armed %s'
+                        % ', '.join('%s took %.2f s' % (u.ns, t) for u, t in zip(uavs, took)))
         for uav in uavs:
             self.assert_holds(uav, 2.0, 0.15, 2.0)
 
