@@ -46,7 +46,8 @@ def test_a_stall_skips_the_missed_steps_and_says_how_many(caplog):
     said = [r.getMessage() for r in caplog.records]
     # the 1 s stall less the loop's own slack: 98-100 steps of 10 ms
     assert any(re.search(r'fell (0\.9[89]|1\.0\d) s behind its clock and skipped (98|99|100) steps of its 2 '
-                         r'vehicle\(s\)', m) and 'cannot keep up with 2 vehicles in one process (fewer a process: multi_uav.launch vehicles_per_sim)' in m
+                         r'vehicle\(s\)', m) and 'cannot keep up with 2 vehicles in one process (a process runs on one core; multi_uav.launch '
+               'vehicles_per_sim sets how many share one)' in m
                for m in said), said
     # the totals at the end (a real hiccup of this process over 0.25 s would add a stall of its own)
     totals = [re.search(r'skipped (\d+) steps of each vehicle, their streams with them, in (\d+) stalls', m) for m in said]

@@ -46,7 +46,8 @@ def run_together(sims, duration_s=None, on_stall=None):
     stalls = steps_skipped = 0
     at_speed = ' at %gx' % speed if speed != 1.0 else ''
     why = (' at that speed' if speed != 1.0 else
-           ' with %d vehicles in one process (fewer a process: multi_uav.launch vehicles_per_sim)' % len(sims)
+           ' with %d vehicles in one process (a process runs on one core; multi_uav.launch vehicles_per_sim sets how '
+           'many share one)' % len(sims)
            if len(sims) > 1 else '')
     end_s = None if duration_s is None else next_s + duration_s
     try:
