@@ -31,6 +31,7 @@ from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
 from offboard_py.stack import BRIDGES, SIM_PROCESSES, VEHICLES_PER_SIM, rospack_find
+from offboard_py.sim import main as sim_main
 from offboard_py.sim.loop import STALL_S
 from offboard_py.tools.demo import launch_failure
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
@@ -107,17 +108,11 @@ def role_of(cmdline):
 
 
 def vehicles_served(cmdline):
-    """The instances a shared simulator process serves (multi_uav.launch sim_process:=one: sim_px4.py -i K
-    --vehicles M serves K .. K+M-1), from its command line (bytes, arguments joined by spaces)."""
-    argv = cmdline.split()
-
-    def value(names, default):
-        for k, word in enumerate(argv[:-1]):
-            if word in names:
-                return int(argv[k + 1])
-        return default
-    first = value((b'-i', b'--instance'), 0)
-    return range(first, first + value((b'--vehicles',), 1))
+    """The instances a shared simulator process serves (multi_uav.launch sim_process:=one), from its command
+    line (bytes, arguments joined by spaces), as the simulator reads its arguments (sim.main.vehicles_served)."""
+    argv = cmdline.decode(errors='replace').split()
+    script = next(k for k, word in enumerate(argv) if word.endswith('sim_px4.py'))
+    return sim_main.vehicles_served(argv[script + 1:])
 
 
 def processes(launch_pid):

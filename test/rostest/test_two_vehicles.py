@@ -7,6 +7,7 @@ import os
 import rospy
 import rostest
 
+from offboard_py.sim.main import vehicles_served
 from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle
 
 PKG = 'offboard_py'
@@ -17,7 +18,7 @@ REQUEST_INTERVAL_S = 5.0
 
 def simulator_processes():
     """{node name: the instances it serves} of each simulator process roslaunch started here (the simulated
-    PX4 speaks MAVLink, not ROS, so the master does not know it): sim_px4.py's command line, -i K --vehicles M."""
+    PX4 speaks MAVLink, not ROS, so the master does not know it), from sim_px4.py's command line."""
     found = {}
     for pid in filter(str.isdigit, os.listdir('/proc')):
         try:
@@ -26,13 +27,9 @@ def simulator_processes():
         except OSError:
             continue  # gone meanwhile
         names = [a.split(':=', 1)[1] for a in argv if a.startswith('__name:=')]
-        if not names or not any(a.endswith('sim_px4.py') for a in argv):
-            continue
-
-        def value(option, default):
-            return int(argv[argv.index(option) + 1]) if option in argv else default
-        first = value('-i', 0)
-        found[names[0]] = list(range(first, first + value('--vehicles', 1)))
+        script = [k for k, a in enumerate(argv) if a.endswith('sim_px4.py')]
+        if names and script:
+            found[names[0]] = list(vehicles_served(argv[script[0] + 1:]))
     return found
 
 

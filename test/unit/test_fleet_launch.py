@@ -7,6 +7,7 @@ import pytest
 import roslaunch.config
 
 from offboard_py import stack
+from offboard_py.sim.main import vehicles_served
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 MULTI_UAV = os.path.join(REPO, 'launch', 'multi_uav.launch')
@@ -24,10 +25,8 @@ def simulators(*args):
         if node.type != 'sim_px4.py':
             continue
         argv = node.args.split()
-        first = int(argv[argv.index('-i') + 1])
-        count = int(argv[argv.index('--vehicles') + 1]) if '--vehicles' in argv else 1
-        found.append((node.namespace + node.name, list(range(first, first + count)),
-                      argv[argv.index('--spawn') + 1], node.required))
+        found.append((node.namespace + node.name, list(vehicles_served(argv)), argv[argv.index('--spawn') + 1],
+                      node.required))
     return found
 
 

@@ -45,10 +45,13 @@ def run_together(sims, duration_s=None, on_stall=None):
     next_s = clock()  # the schedule's time of the next step
     stalls = steps_skipped = 0
     at_speed = ' at %gx' % speed if speed != 1.0 else ''
-    why = (' at that speed' if speed != 1.0 else
-           ' with %d vehicles in one process (a process runs on one core; multi_uav.launch vehicles_per_sim sets how '
-           'many share one)' % len(sims)
-           if len(sims) > 1 else '')
+    if speed != 1.0:
+        why = ' at that speed'
+    elif len(sims) > 1:
+        why = (' with %d vehicles in one process (a process runs on one core; multi_uav.launch vehicles_per_sim '
+               'sets how many share one)' % len(sims))
+    else:
+        why = ''
     end_s = None if duration_s is None else next_s + duration_s
     try:
         while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):

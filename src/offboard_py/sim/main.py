@@ -178,6 +178,13 @@ def parser():
     return p
 
 
+def vehicles_served(argv):
+    """The instances a simulator command line serves (its arguments after sim_px4.py, roslaunch's name:=value
+    ones among them): -i N --vehicles K serves N .. N+K-1, read by this parser as main() reads them."""
+    args, _ = parser().parse_known_args([a for a in argv if ':=' not in a])
+    return range(args.instance, args.instance + args.vehicles)
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     args = parser().parse_args([a for a in argv if ':=' not in a])
