@@ -542,3 +542,69 @@ def test_tutorial_takeoff_timing_disarm_refused_while_climbing_and_failsafe_gimb
     texts = [m.text for _, m in client.received('STATUSTEXT')]
     # our refused disarm's text aside, none: PX4 main says arming, takeoff and the failsafe as events only
     assert [text for text in texts if not text.startswith('Disarming denied')] == [], texts
+
+
+def hover_thrust_plus(client, extra):
+    """SET_ATTITUDE_TARGET: level, heading north, collective MPC_THR_HOVER (0.5) + `extra`."""
+    rates_ignored = (mavlink.ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE
+                     | mavlink.ATTITUDE_TARGET_TYPEMASK_BODY_PITCH_RATE_IGNORE
+                     | mavlink.ATTITUDE_TARGET_TYPEMASK_BODY_YAW_RATE_IGNORE)
+    return lambda: client.mav.set_attitude_target_encode(0, client.target, 1, rates_ignored, [1.0, 0.0, 0.0, 0.0],
+                                                         0.0, 0.0, 0.0, 0.5 + extra)
+
+
+def test_attitude_setpoints_are_the_offboard_signal_and_are_flown(start_sim):
+    """PX4 takes SET_ATTITUDE_TARGET as the offboard signal (mavros setpoint_raw/attitude and
+    setpoint_attitude) and flies the attitude and collective thrust without its position
+    controller: above hover thrust the vehicle climbs, below it sinks. Body rates alone are not
+    modelled and give no signal."""
+    _, client = start_sim(*FAST)
+    client.sleep(1.2)
+    rates_only = lambda: client.mav.set_attitude_target_encode(0, client.target, 1,
+                                                               mavlink.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE,
+                                                               [1.0, 0.0, 0.0, 0.0], 0.1, 0.0, 0.0, 0.5)
+    client.start_stream(message=rates_only)
+    client.sleep(0.5)
+    assert client.set_mode('OFFBOARD') == ACCEPTED  # disarmed: accepted without the signal, as PX4
+    client.wait_mode('OFFBOARD', 2.0)
+    assert client.arm() == TEMPORARILY_REJECTED, 'body rates alone are no signal here'
+    client.start_stream(message=hover_thrust_plus(client, 0.1))
+    client.sleep(0.5)
+    assert client.arm() == ACCEPTED
+    client.wait_armed(True, 2.0)
+    client.wait_for(lambda: client.z() < -3.0, 15.0, 'a climb above 3 m at hover thrust + 0.1')
+    client.start_stream(message=hover_thrust_plus(client, -0.1))
+    top = client.z()
+    client.wait_for(lambda: client.z() > top + 0.5, 10.0, 'a descent at hover thrust - 0.1')
+    assert client.latest['HEARTBEAT'].custom_mode == px4_modes.encode('OFFBOARD')
+    client.stop_stream()
+
+
+def test_global_setpoints_are_the_offboard_signal_and_are_flown(start_sim):
+    """SET_POSITION_TARGET_GLOBAL_INT (mavros setpoint_raw/global): a position 3 m north of home at
+    2.5 m above it (GLOBAL_RELATIVE_ALT_INT), flown in OFFBOARD as a local one; another frame is
+    refused and gives no signal. The local z is PX4's arithmetic, home's altitude minus 2.5 m minus
+    the origin's: -2.5 m less home's local z (which PX4 adds with the wrong sign)."""
+    _, client = start_sim(*FAST)
+    client.sleep(1.2)
+    home = client.wait_for(lambda: client.latest.get('GLOBAL_POSITION_INT'), 5.0, 'GLOBAL_POSITION_INT')
+    north_deg = 3.0 / 111194.9  # 3 m of latitude on a 6371 km sphere
+    lat, lon = home.lat + int(round(north_deg * 1e7)), home.lon
+
+    def target(frame):
+        return lambda: client.mav.set_position_target_global_int_encode(
+            0, client.target, 1, frame, POSITION_AND_YAW, lat, lon, 2.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    client.start_stream(message=target(mavlink.MAV_FRAME_LOCAL_NED))
+    client.sleep(0.5)
+    assert client.set_mode('OFFBOARD') == ACCEPTED  # disarmed: accepted without the signal, as PX4
+    client.wait_mode('OFFBOARD', 2.0)
+    assert client.arm() == TEMPORARILY_REJECTED, 'frame LOCAL_NED is not a global frame: no signal'
+    client.start_stream(message=target(mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT))
+    client.sleep(0.5)
+    assert client.arm() == ACCEPTED
+    client.wait_armed(True, 2.0)
+    client.sleep(2.1)  # HOME_POSITION (set again at arming) is sent at 0.5 Hz
+    down = -client.latest['HOME_POSITION'].z - 2.5
+    client.wait_for(lambda: abs(client.latest['LOCAL_POSITION_NED'].x - 3.0) < 0.3 and abs(client.z() - down) < 0.3,
+                    25.0, 'the vehicle 3 m north at local z %.2f m (within 0.3 m)' % down)
+    client.stop_stream()

@@ -49,6 +49,83 @@ def test_setpoint_decoding():
     assert body.velocity[:2] == pytest.approx((0.0, 1.0)), 'body x forward, facing east'
 
 
+def test_body_ned_drops_a_vector_with_any_axis_ignored():
+    """PX4's receiver (BODY_NED): one velocity axis ignored drops the whole velocity, so a setpoint
+    with only vx and vy is no setpoint at all, where LOCAL_NED flies the two axes it has."""
+    vz_ignored = VELOCITY_ONLY | M.POSITION_TARGET_TYPEMASK_VZ_IGNORE
+    with pytest.raises(offboard_input.SetpointRejected, match='no position, velocity or acceleration'):
+        offboard_input.offboard_setpoint(M.MAV_FRAME_BODY_NED, vz_ignored, (0, 0, 0), (0.5, 0, 0), (0, 0, 0), 0, 0, 0.0)
+    local = offboard_input.offboard_setpoint(M.MAV_FRAME_LOCAL_NED, vz_ignored, (0, 0, 0), (0.5, 0, 0), (0, 0, 0), 0,
+                                             0, 0.0)
+    assert local.velocity[:2] == (0.5, 0.0) and math.isnan(local.velocity[2])
+
+
+GLOBAL_ORIGIN = LocalFrame(47.0, 8.0, 500.0)
+
+
+def global_setpoint(frame, alt, mask=POS_YAW, home_amsl=500.4, origin=GLOBAL_ORIGIN):
+    return offboard_input.global_setpoint(frame, mask, int(47.0 * 1e7) + 270, int(8.0 * 1e7), alt, (0, 0, 0),
+                                          (0, 0, 0), 0.0, 0.0, origin, home_amsl)
+
+
+def test_global_setpoint_altitudes_as_px4_computes_them():
+    """SET_POSITION_TARGET_GLOBAL_INT: north of the origin by 270e-7 deg (3.0 m), and the local z by
+    PX4's own arithmetic: the origin's altitude minus an AMSL one; home's minus a relative one minus
+    the origin's (PX4's receiver: -alt when home is at the origin's height, and home's offset with
+    the sign turned when it is not)."""
+    sp = global_setpoint(M.MAV_FRAME_GLOBAL_INT, 503.0)
+    assert sp.position == pytest.approx((3.0, 0.0, -3.0), abs=0.01)
+    assert global_setpoint(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 2.5, home_amsl=500.0).position[2] == pytest.approx(-2.5)
+    assert global_setpoint(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 2.5, home_amsl=500.4).position[2] == pytest.approx(-2.1)
+
+
+@pytest.mark.parametrize('frame, alt, kwargs, words', [
+    (M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, 2.0, {}, 'frame 11'),
+    (M.MAV_FRAME_LOCAL_NED, 2.0, {}, 'frame 1'),
+    (M.MAV_FRAME_GLOBAL_INT, NAN, {}, 'not a number'),
+    (M.MAV_FRAME_GLOBAL_INT, 2.0, {'origin': None}, 'no global position yet'),
+])
+def test_global_setpoints_refused(frame, alt, kwargs, words):
+    with pytest.raises(offboard_input.SetpointRejected, match=words):
+        global_setpoint(frame, alt, **kwargs)
+
+
+def test_global_setpoint_velocity_only_needs_no_position():
+    sp = global_setpoint(M.MAV_FRAME_LOCAL_NED, NAN, mask=VELOCITY_ONLY, origin=None)
+    assert all(math.isnan(v) for v in sp.position) and sp.velocity == (0.0, 0.0, 0.0)
+
+
+def test_attitude_setpoint():
+    half = math.sqrt(0.5)
+    sp = offboard_input.attitude_setpoint(0, (2 * half, 0.0, 0.0, 2 * half), 0.6)  # not unit: normalised
+    assert sp.attitude == pytest.approx((half, 0.0, 0.0, half)) and sp.yaw == pytest.approx(math.pi / 2)
+    assert sp.thrust == 0.6 and all(math.isnan(v) for v in sp.position + sp.velocity)
+    for mask, q, thrust, words in [(M.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE, (1, 0, 0, 0), 0.5, 'body rate'),
+                                   (0, (0, 0, 0, 0), 0.5, 'all zero'), (0, (NAN, 0, 0, 1), 0.5, 'not finite'),
+                                   (0, (1, 0, 0, 0), 1.5, 'outside 0..1'), (0, (1, 0, 0, 0), NAN, 'outside 0..1'),
+                                   (32, (1, 0, 0, 0), 0.5, 'thrust_body')]:
+        with pytest.raises(offboard_input.SetpointRejected, match=words):
+            offboard_input.attitude_setpoint(mask, q, thrust)
+
+
+def test_attitude_setpoint_flown_without_the_position_controller():
+    """Armed in OFFBOARD on attitude setpoints: spool-up first, then above hover thrust it climbs;
+    a 10 deg pitch forward (NED/FRD: nose down) moves it north."""
+    f = make()
+    level = offboard_input.attitude_setpoint(0, (1.0, 0.0, 0.0, 0.0), 0.6)
+    t = fly(f, 0.0, 0.5, level)
+    assert f.request_mode('OFFBOARD', t) == ACCEPTED and f.request_arming(True, False, t) == ACCEPTED
+    t = fly(f, t, 1.0, level)
+    assert f.vehicle.position[2] == pytest.approx(f.vehicle.ground_z), 'still spooling up (COM_SPOOLUP_TIME 1 s)'
+    t = fly(f, t, 3.0, level)
+    assert f.vehicle.position[2] < f.vehicle.ground_z - 1.0, 'climbing at 0.6 > MPC_THR_HOVER 0.5'
+    pitch = math.radians(-10.0) / 2
+    forward = offboard_input.attitude_setpoint(0, (math.cos(pitch), 0.0, math.sin(pitch), 0.0), 0.55)
+    north = f.vehicle.position[0]
+    fly(f, t, 2.0, forward)
+    assert f.vehicle.position[0] > north + 0.5
+
+
 def test_force_bit_with_acceleration_ignored_is_a_position_setpoint():
     """Measured on PX4 SITL (px4-sitl-measured.md, Answers): taken as a normal position setpoint."""
     sp = position_setpoint(mask=POS_YAW | M.POSITION_TARGET_TYPEMASK_FORCE_SET)

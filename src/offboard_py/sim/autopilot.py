@@ -162,6 +162,8 @@ class SimulatedPx4:
         control('COMMAND_INT', self._on_command)
         control('SET_MODE', self._on_set_mode)
         control('SET_POSITION_TARGET_LOCAL_NED', self._on_setpoint)
+        control('SET_POSITION_TARGET_GLOBAL_INT', self._on_setpoint)
+        control('SET_ATTITUDE_TARGET', self._on_setpoint)
         control('PARAM_SET', self._on_param_set)
         control('SETUP_SIGNING', self._on_setup_signing)
         control('MISSION_COUNT', self._mission(lambda m, t: self.transfer.on_count(m, t)))
@@ -349,14 +351,25 @@ class SimulatedPx4:
     # -- setpoints, parameters, signing, timesync, missions ------------------------------------
 
     def _on_setpoint(self, msg):
+        """The three setpoint messages PX4 takes as the offboard signal (sim.offboard_input)."""
         if not self._for_me(msg):
             return
+        kind = msg.get_type()
+        yaw = self.flight.vehicle.yaw
         try:
-            sp = offboard_input.from_message(msg, self.flight.vehicle.yaw)
+            if kind == 'SET_POSITION_TARGET_LOCAL_NED':
+                sp = offboard_input.from_message(msg, yaw)
+            elif kind == 'SET_ATTITUDE_TARGET':
+                sp = offboard_input.from_attitude_message(msg)
+            else:
+                now = self.t()
+                known = self.flight.commander.ready(now)
+                home_amsl = self.frame.alt0 - self.flight.home[2] if known else None
+                sp = offboard_input.from_global_message(msg, self.frame if known else None, home_amsl)
         except offboard_input.SetpointRejected as err:
             self.counters['setpoints_rejected'] += 1
             if self.counters['setpoints_rejected'] in (1, 10, 100, 1000):
-                log.warning('setpoint rejected (%d so far): %s', self.counters['setpoints_rejected'], err)
+                log.warning('%s rejected (%d setpoints so far): %s', kind, self.counters['setpoints_rejected'], err)
             return
         self.counters['setpoints_accepted'] += 1
         for hook in self.on_setpoint_accepted:

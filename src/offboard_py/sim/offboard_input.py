@@ -1,13 +1,20 @@
-"""Offboard input of the simulated PX4: a SET_POSITION_TARGET_LOCAL_NED -> a vehicle Setpoint.
+"""Offboard input of the simulated PX4: the three setpoint messages PX4 takes as the offboard signal
+(SET_POSITION_TARGET_LOCAL_NED, SET_POSITION_TARGET_GLOBAL_INT, SET_ATTITUDE_TARGET) -> a vehicle Setpoint.
 
-As PX4 reads the message (reference/px4-behaviour.md and px4-sitl-measured.md):
+SET_POSITION_TARGET_LOCAL_NED, as PX4 reads it (reference/px4-behaviour.md and px4-sitl-measured.md;
+PX4's mavlink_receiver.cpp where they are silent):
 - frames LOCAL_NED and BODY_NED; BODY_NED rotates velocity and acceleration by the
-  vehicle's yaw and ignores position; any other frame is refused;
+  vehicle's yaw and ignores position, and drops the whole velocity (or acceleration) when
+  any of its axes is ignored, as PX4 does; any other frame is refused;
 - each axis whose POSITION_TARGET_TYPEMASK_*_IGNORE bit is set is left uncontrolled;
 - the FORCE bit is taken as a normal setpoint when acceleration is ignored anyway
   (measured on PX4 SITL) and refused when it would make an acceleration a force;
 - a message that controls no position, velocity or acceleration is refused, and so is
   an infinite number anywhere.
+SET_POSITION_TARGET_GLOBAL_INT: the position (all three axes or none) projected around the local
+frame's origin, its altitude by frame as PX4 computes it; velocity and acceleration taken as NED.
+SET_ATTITUDE_TARGET: an attitude (its quaternion, normalised) and a collective thrust, flown without
+the position controller. Body rates alone (the attitude ignored) are not modelled and are refused.
 Pure: it never sees a socket or a clock. Whether OFFBOARD flies it is the commander's rule.
 """
 
@@ -49,7 +56,9 @@ def offboard_setpoint(frame, type_mask, position, velocity, acceleration, yaw, y
         used[0:3] = [nan, nan, nan]
         for k in (3, 6):
             x, y = used[k], used[k + 1]
-            if x == x and y == y:
+            if not all(v == v for v in used[k:k + 3]):
+                used[k:k + 3] = [nan, nan, nan]  # PX4: one axis ignored drops the vector
+            else:
                 used[k], used[k + 1] = c * x - s * y, s * x + c * y
     if not any(v == v for v in used):
         raise SetpointRejected('no position, velocity or acceleration in setpoint (type_mask 0x%x)' % type_mask)
@@ -63,3 +72,82 @@ def from_message(msg, vehicle_yaw):
     """offboard_setpoint() of a pymavlink SET_POSITION_TARGET_LOCAL_NED."""
     return offboard_setpoint(msg.coordinate_frame, msg.type_mask, (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz),
                              (msg.afx, msg.afy, msg.afz), msg.yaw, msg.yaw_rate, vehicle_yaw)
+
+
+# SET_POSITION_TARGET_GLOBAL_INT's frames, as PX4's receiver takes them
+GLOBAL_FRAMES = (mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+# ATTITUDE_TARGET_TYPEMASK_THRUST_BODY_SET (32): newer than the dialect this project generates
+ATTITUDE_TARGET_TYPEMASK_THRUST_BODY_SET = getattr(mavlink, 'ATTITUDE_TARGET_TYPEMASK_THRUST_BODY_SET', 32)
+_POSITION_IGNORED = (mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE
+                     | mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE)
+
+
+def global_setpoint(frame, type_mask, lat_int, lon_int, alt, velocity, acceleration, yaw, yaw_rate, local_frame,
+                    home_amsl):
+    """Decode a SET_POSITION_TARGET_GLOBAL_INT into a vehicle Setpoint (local NED). `local_frame` is the
+    estimator's origin (sim.geo.LocalFrame), `home_amsl` home's altitude (m AMSL), None while either is
+    not known, when PX4 drops a message with a position. Raises SetpointRejected.
+
+    As PX4's receiver: the position is used only with none of its axes ignored; the altitude is
+    the origin's minus `alt` (GLOBAL_INT, AMSL) or home's minus `alt` minus the origin's
+    (GLOBAL_RELATIVE_ALT_INT: PX4's own arithmetic, which is -alt when home is at the origin's
+    height); GLOBAL_TERRAIN_ALT_INT needs a terrain estimate, which this vehicle has not."""
+    if type_mask & _POSITION_IGNORED:
+        position = (vm.NAN, vm.NAN, vm.NAN)
+    elif frame not in GLOBAL_FRAMES:
+        raise SetpointRejected('coordinate frame %d is not supported (MAV_FRAME_GLOBAL_INT %d or '
+                               'MAV_FRAME_GLOBAL_RELATIVE_ALT_INT %d)'
+                               % (frame, mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT))
+    elif local_frame is None or home_amsl is None:
+        raise SetpointRejected('no global position yet: a global setpoint needs the estimator\'s origin and home')
+    elif not math.isfinite(alt):
+        raise SetpointRejected('altitude %r is not a number' % alt)
+    else:
+        north, east, _ = local_frame.to_local(lat_int / 1e7, lon_int / 1e7, local_frame.alt0)
+        if frame == mavlink.MAV_FRAME_GLOBAL_INT:
+            down = local_frame.alt0 - alt
+        else:
+            down = (home_amsl - alt) - local_frame.alt0
+        position = (north, east, down)
+    # the rest is read as a LOCAL_NED setpoint's, with the position in place
+    if position[0] != position[0]:
+        type_mask |= _POSITION_IGNORED
+        position = (0.0, 0.0, 0.0)
+    return offboard_setpoint(mavlink.MAV_FRAME_LOCAL_NED, type_mask, position, velocity, acceleration, yaw, yaw_rate,
+                             0.0)
+
+
+def from_global_message(msg, local_frame, home_amsl):
+    """global_setpoint() of a pymavlink SET_POSITION_TARGET_GLOBAL_INT."""
+    return global_setpoint(msg.coordinate_frame, msg.type_mask, msg.lat_int, msg.lon_int, msg.alt,
+                           (msg.vx, msg.vy, msg.vz), (msg.afx, msg.afy, msg.afz), msg.yaw, msg.yaw_rate,
+                           local_frame, home_amsl)
+
+
+def attitude_setpoint(type_mask, q_wxyz, thrust):
+    """Decode a SET_ATTITUDE_TARGET into a vehicle Setpoint that flies attitude `q_wxyz` (NED/FRD,
+    normalised here) at collective `thrust` (0..1, PX4's fill_thrust for a multicopter). Raises
+    SetpointRejected for what this vehicle does not fly: rates without an attitude, a quaternion
+    that is not a rotation, a thrust that is not a number or outside 0..1, or thrust_body."""
+    if type_mask & mavlink.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE:
+        raise SetpointRejected('body rate setpoints (ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE set) are not modelled')
+    if type_mask & ATTITUDE_TARGET_TYPEMASK_THRUST_BODY_SET:
+        raise SetpointRejected('thrust_body setpoints (ATTITUDE_TARGET_TYPEMASK_THRUST_BODY_SET) are not modelled')
+    if not all(math.isfinite(c) for c in q_wxyz):
+        raise SetpointRejected('attitude quaternion %r is not finite' % (tuple(q_wxyz),))
+    norm = math.sqrt(sum(c * c for c in q_wxyz))
+    if norm < 1e-6:
+        raise SetpointRejected('attitude quaternion is all zero: not a rotation')
+    q = tuple(c / norm for c in q_wxyz)
+    if type_mask & mavlink.ATTITUDE_TARGET_TYPEMASK_THROTTLE_IGNORE:
+        thrust = vm.NAN  # PX4 leaves the thrust setpoint at zero: the vehicle falls or stays down
+    elif not (math.isfinite(thrust) and 0.0 <= thrust <= 1.0):
+        raise SetpointRejected('thrust %r is outside 0..1' % thrust)
+    w, x, y, z = q
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return vm.setpoint(yaw=yaw, attitude=q, thrust=0.0 if thrust != thrust else float(thrust))
+
+
+def from_attitude_message(msg):
+    """attitude_setpoint() of a pymavlink SET_ATTITUDE_TARGET (q is w, x, y, z)."""
+    return attitude_setpoint(msg.type_mask, tuple(msg.q), msg.thrust)

@@ -45,16 +45,19 @@ RATE_WN, RATE_ZETA = 16.0, 0.55
 ATTITUDE_SUBSTEP_S = 0.01  # the rate response is integrated in steps no longer than this
 YAW_P = 2.8               # MC_YAW_P
 YAW_RATE_MAX = math.radians(200.0)  # MC_YAWRATE_MAX
-Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max')
+Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max '
+                                  'attitude thrust')
 Setpoint.__doc__ = """What a flight mode asks of the controller. Vectors are NED 3-tuples whose NaN
 components are not controlled; yaw/yaw_rate NaN means "keep". The *_max fields, when not
-None, tighten the MPC_* velocity limits (takeoff and landing speeds, cruise speed)."""
+None, tighten the MPC_* velocity limits (takeoff and landing speeds, cruise speed). `attitude`
+(w, x, y, z, NED/FRD, unit), when not None, is flown with collective `thrust` (0..1) without the
+position controller, as PX4's offboard attitude control does."""
 
 
 def setpoint(position=(NAN, NAN, NAN), velocity=(NAN, NAN, NAN), acceleration=(NAN, NAN, NAN),
-             yaw=NAN, yaw_rate=NAN, xy_speed_max=None, z_up_max=None, z_down_max=None):
+             yaw=NAN, yaw_rate=NAN, xy_speed_max=None, z_up_max=None, z_down_max=None, attitude=None, thrust=0.0):
     return Setpoint(tuple(position), tuple(velocity), tuple(acceleration), yaw, yaw_rate,
-                    xy_speed_max, z_up_max, z_down_max)
+                    xy_speed_max, z_up_max, z_down_max, attitude, thrust)
 
 
 def hold(position, yaw):
@@ -161,23 +164,27 @@ class VehicleModel:
         self._now_s = now_s
         climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
         control = self.control
-        if self.motors_on:
-            control.update_takeoff(sp, dt, climb_speed, self.spooled_up(now_s), self.estimate[0][2], self.landed)
-        flying = control.flying()
-        if flying:
-            thrust_sp = control.thrust(sp, self.estimate, self.acceleration, dt)
-            if is_set(sp.yaw):
-                yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
-            else:
-                yaw_rate = sp.yaw_rate if is_set(sp.yaw_rate) else 0.0
-            self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
-            self.setpoint = sp
+        if sp.attitude is not None and self.motors_on:
+            thrust_sp = self._fly_attitude(sp, now_s)
+            flying = control.flying()
         else:
-            # motors off or idling, the controller held (PX4 resets its integrals until the ramp)
-            thrust_sp = [0.0, 0.0, 0.0]
-            control.hold()
-            self.yaw_rate = 0.0
-            self.setpoint = None
+            if self.motors_on:
+                control.update_takeoff(sp, dt, climb_speed, self.spooled_up(now_s), self.estimate[0][2], self.landed)
+            flying = control.flying()
+            if flying:
+                thrust_sp = control.thrust(sp, self.estimate, self.acceleration, dt)
+                if is_set(sp.yaw):
+                    yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
+                else:
+                    yaw_rate = sp.yaw_rate if is_set(sp.yaw_rate) else 0.0
+                self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
+                self.setpoint = sp
+            else:
+                # motors off or idling, the controller held (PX4 resets its integrals until the ramp)
+                thrust_sp = [0.0, 0.0, 0.0]
+                control.hold()
+                self.yaw_rate = 0.0
+                self.setpoint = None
         self.thrust_setpoint = thrust_sp
         self._attitude_loop(self._delayed(thrust_sp, now_s), dt)
         mass = max(p['SIH_MASS'], 0.01)  # SIH's airframe parameters are not range-checked
@@ -203,6 +210,30 @@ class VehicleModel:
         imu = self.imu
         imu.step(dt, (self.tilt_rates[0], self.tilt_rates[1], self.yaw_rate), self._specific_force(), resting)
         self.body_rates, self.gyro = imu.rates, imu.gyro
+
+    def _fly_attitude(self, sp, now_s):
+        """PX4's offboard attitude control (SET_ATTITUDE_TARGET): the position controller does not
+        run (its integrals reset, no takeoff ramp); once the motors have spooled up the thrust is
+        the collective along the attitude's body z axis, and the heading turns to the attitude's
+        yaw as in the other modes. Returns the thrust setpoint (normalised, NED)."""
+        control = self.control
+        control.hold()
+        if not self.spooled_up(now_s):
+            control.takeoff_state = 'spoolup'
+            self.yaw_rate = 0.0
+            self.setpoint = None
+            return [0.0, 0.0, 0.0]
+        control.takeoff_state = 'flight'  # what PX4's takeoff handling finds if position control resumes
+        w, x, y, z = sp.attitude
+        body_z = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
+        thrust_sp = [-c * sp.thrust for c in body_z]
+        p = self.params
+        thrust_acc = 4.0 * p['SIH_T_MAX'] / max(p['SIH_MASS'], 0.01)
+        control.acceleration_setpoint = [t * thrust_acc + (GRAVITY if i == 2 else 0.0) for i, t in enumerate(thrust_sp)]
+        yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
+        self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
+        self.setpoint = sp
+        return thrust_sp
 
     def _delayed(self, thrust_sp, now_s):
         """The thrust setpoint the attitude controller works on now: the one of PIPELINE_DELAY_S ago."""

@@ -302,8 +302,9 @@ class Client:
         return self.mav.set_position_target_local_ned_encode(0, self.target, 1, frame, type_mask, north, east, down,
                                                              *velocity, 0.0, 0.0, 0.0, yaw, 0.0)
 
-    def start_stream(self, north=0.0, east=0.0, down=-2.0, rate_hz=20.0):
-        """Send a position setpoint at rate_hz (simulated) until stop_stream()."""
+    def start_stream(self, north=0.0, east=0.0, down=-2.0, rate_hz=20.0, message=None):
+        """Send a position setpoint at rate_hz (simulated) until stop_stream(); `message`, a function
+        returning the message to send, streams another kind of setpoint."""
         self.stop_stream()
         stop = threading.Event()
 
@@ -311,7 +312,7 @@ class Client:
             period = 1.0 / rate_hz
             next_s = self.now()
             while not stop.is_set():
-                self.send(self.setpoint(north, east, down))
+                self.send(message() if message else self.setpoint(north, east, down))
                 self.last_setpoint_s = self.now()
                 next_s += period
                 stop.wait(self.clock.wall_s(max(0.0, next_s - self.now())))
