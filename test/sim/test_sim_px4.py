@@ -608,3 +608,25 @@ def test_global_setpoints_are_the_offboard_signal_and_are_flown(start_sim):
     client.wait_for(lambda: abs(client.latest['LOCAL_POSITION_NED'].x - 3.0) < 0.3 and abs(client.z() - down) < 0.3,
                     25.0, 'the vehicle 3 m north at local z %.2f m (within 0.3 m)' % down)
     client.stop_stream()
+
+
+def test_reposition_flies_to_a_global_position_in_loiter(start_sim):
+    """MAV_CMD_DO_REPOSITION as MAVSDK's goto_location sends it (COMMAND_INT, MAV_FRAME_GLOBAL_INT,
+    param2 bit 0 asking for the mode change): ACCEPTED, AUTO.LOITER, flown to 6 m north at 4 m
+    above home's AMSL altitude, held there. Without bit 0 PX4 answers UNSUPPORTED."""
+    _, client = start_sim(*FAST)
+    client.sleep(1.2)
+    assert client.arm() == ACCEPTED
+    assert client.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, *NAN4)[0] == ACCEPTED
+    client.wait_mode('AUTO.LOITER', 15.0)
+    home = client.wait_for(lambda: client.latest.get('HOME_POSITION'), 3.0, 'HOME_POSITION')
+    lat = home.latitude + int(round(6.0 / 111194.9 * 1e7))  # 6 m north on a 6371 km sphere
+    alt = home.altitude / 1000.0 + 4.0
+    frame = mavlink.MAV_FRAME_GLOBAL_INT
+    nan4 = (-1.0, 0.0, 0.0, math.nan)
+    assert client.command_int(mavlink.MAV_CMD_DO_REPOSITION, frame, nan4, lat, home.longitude, alt) == UNSUPPORTED
+    assert client.command_int(mavlink.MAV_CMD_DO_REPOSITION, frame, (-1.0, 1.0, 0.0, math.nan), lat, home.longitude,
+                              alt) == ACCEPTED
+    client.wait_for(lambda: abs(client.latest['LOCAL_POSITION_NED'].x - home.x - 6.0) < 0.5
+                    and abs(client.z() - (home.z - 4.0)) < 0.3, 20.0, '6 m north of home, 4 m above it')
+    assert client.mode() == 'AUTO.LOITER'

@@ -123,6 +123,7 @@ class SimulatedPx4:
             mavlink.MAV_CMD_NAV_LAND: lambda msg, now: self.flight.request_mode('AUTO.LAND', now),
             mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda msg, now: self.flight.request_mode('AUTO.RTL', now),
             mavlink.MAV_CMD_MISSION_START: self._cmd_mission_start,
+            mavlink.MAV_CMD_DO_REPOSITION: self._cmd_reposition,
             mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: self._cmd_set_message_interval,
             mavlink.MAV_CMD_GET_MESSAGE_INTERVAL: self._cmd_get_message_interval,
             mavlink.MAV_CMD_REQUEST_MESSAGE: self._cmd_request_message,
@@ -288,6 +289,27 @@ class SimulatedPx4:
     def _cmd_takeoff(self, msg, now):
         altitude = msg.z if msg.get_type() == 'COMMAND_INT' else msg.param7
         return self.flight.takeoff(altitude, self.frame.alt0, now)
+
+    def _cmd_reposition(self, msg, now):
+        """DO_REPOSITION (MAVSDK's goto_location, QGroundControl's "go to location"): param2 must ask
+        for the mode change (bit 0) and nothing else, or PX4 answers UNSUPPORTED; latitude and
+        longitude (COMMAND_INT: x, y in 1e-7 deg) and the altitude AMSL each NaN for "as now";
+        param1 the ground speed (none: MPC_XY_CRUISE), param4 the yaw (NaN: as now)."""
+        flags = int(msg.param2) if math.isfinite(msg.param2) else 0
+        if not flags & 1 or flags & ~1:
+            return UNSUPPORTED
+        if msg.get_type() == 'COMMAND_INT':
+            lat, lon, alt = msg.x / 1e7, msg.y / 1e7, msg.z
+        else:
+            lat, lon, alt = msg.param5, msg.param6, msg.param7
+        v = self.flight.vehicle
+        north, east, down = v.position
+        if math.isfinite(lat) and math.isfinite(lon):
+            north, east, _ = self.frame.to_local(lat, lon, self.frame.alt0)
+        if math.isfinite(alt):
+            down = self.frame.alt0 - alt
+        speed = msg.param1 if math.isfinite(msg.param1) and msg.param1 > 0 else None
+        return self.flight.reposition((north, east, down), speed, msg.param4, now)
 
     def _cmd_mission_start(self, msg, now):
         first = int(msg.param1) if math.isfinite(msg.param1) and msg.param1 >= 0 else 0

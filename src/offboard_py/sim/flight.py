@@ -145,6 +145,15 @@ class Flight:
             self.navigator.set_takeoff_height(height)
         return self._routed(result, now_s)
 
+    def reposition(self, target, speed, yaw, now_s):
+        """MAV_CMD_DO_REPOSITION: AUTO.LOITER, flying to `target` (local NED) once the mode is
+        granted. As PX4's commander, the answer is the mode change's; as its navigator, the target
+        is kept only while armed."""
+        result = self.request_mode('AUTO.LOITER', now_s)
+        if result == mavlink.MAV_RESULT_ACCEPTED:
+            self.navigator.set_reposition(target, speed, yaw, self.commander.armed)
+        return self._routed(result, now_s)
+
     def start_mission(self, first_seq, now_s):
         """MAV_CMD_MISSION_START: from item first_seq (0 if out of range) in AUTO.MISSION."""
         if not self.navigator.mission.items:

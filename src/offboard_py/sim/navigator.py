@@ -109,15 +109,28 @@ class NavigatorMode:
 
 class Loiter(NavigatorMode):
     """AUTO.LOITER, and any mode without a setpoint of its own: hold where the mode began (after a
-    takeoff, at the takeoff altitude)."""
+    takeoff, at the takeoff altitude), or fly to a reposition target (MAV_CMD_DO_REPOSITION) and
+    hold there, as PX4's loiter.cpp does."""
 
     def __init__(self, nav):
         super().__init__(nav)
         self.after_takeoff = None  # where to hold once a takeoff completes
+        self.reposition = None     # (target local NED, xy speed or None for MPC_XY_CRUISE, yaw or NaN)
 
     def on_activation(self):
         if self.after_takeoff is not None:
             self.nav.hold_point = self.after_takeoff
+
+    def on_inactivation(self):
+        self.reposition = None
+
+    def setpoint(self, armed, now_s):
+        if self.reposition is None or not armed:
+            return super().setpoint(armed, now_s)
+        nav = self.nav
+        target, speed, yaw = self.reposition
+        sp = nav.flyer.fly_to(nav.vehicle, target, now_s, xy_speed=speed)
+        return sp if yaw != yaw else sp._replace(yaw=yaw)
 
 
 class Takeoff(NavigatorMode):
@@ -318,6 +331,13 @@ class Navigator:
         self.hold_point = tuple(self.vehicle.position)
         if mode == 'AUTO.MISSION':
             self.mission.restart_if_finished()
+
+    def set_reposition(self, target, speed, yaw, armed):
+        """MAV_CMD_DO_REPOSITION's target (local NED) for AUTO.LOITER to fly at `speed` (m/s, None:
+        MPC_XY_CRUISE) facing `yaw` (NaN: as it is). PX4's navigator takes it only while armed."""
+        if armed:
+            self.loiter.reposition = (tuple(target), speed, yaw)
+            self.flyer.direct(None)  # a new trajectory from where the vehicle is
 
     def takeoff_height(self, altitude_amsl, home_alt):
         """NAV_TAKEOFF's altitude as a height above home, or MIS_TAKEOFF_ALT when it is NaN or too low."""

@@ -276,6 +276,13 @@ class Client:
             return found if len(found) >= acks else None
         return self.wait_for(answers, timeout_s, 'COMMAND_ACK for command %d' % command)
 
+    def command_int(self, command, frame, params, x, y, z, timeout_s=3.0):
+        """COMMAND_INT with param1..4 `params`, x and y (1e-7 deg in global frames) and z; return the
+        result of its first COMMAND_ACK."""
+        start = len(self.acks)
+        self.send(self.mav.command_int_encode(self.target, 1, frame, command, 0, 0, *params, x, y, z))
+        return self._first_ack(start, command, timeout_s)
+
     def set_mode(self, mode, timeout_s=3.0):
         """SET_MODE message, as mavros sends it; returns the result of the COMMAND_ACK(DO_SET_MODE)."""
         start = len(self.acks)
