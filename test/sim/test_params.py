@@ -120,3 +120,34 @@ def test_param_set_is_echoed_for_unmodelled_and_modelled_parameters(start_sim):
     start = len(client.history)
     client.send(client.mav.param_set_encode(client.target, 1, b'RTL_RETURN_ALT', 500.0, REAL32))
     assert wait_param_value(client, start, 'RTL_RETURN_ALT').param_value == 45.0, 'RTL_RETURN_ALT is 0..150 m'
+
+
+def test_param_set_errors_as_px4s_parameter_manager(start_sim):
+    """What PX4 main's MAVLink parameter manager cannot apply gets PARAM_ERROR (345) for the requester,
+    the parameter named, index -1, and nothing changes: _HASH_CHECK (READ_ONLY), an unknown name
+    (DOES_NOT_EXIST), a type other than INT32 and REAL32 (TYPE_UNSUPPORTED), the other of the two
+    (TYPE_MISMATCH). A PARAM_SET for system 0 is not for PX4's parameters: no answer."""
+    _, client = start_sim(*FAST)
+    int_wire = struct.unpack('<f', struct.pack('<i', 2))[0]
+    cases = [(b'_HASH_CHECK', 1.0, REAL32, mavlink.MAV_PARAM_ERROR_READ_ONLY),
+             (b'NO_SUCH_PARAM', 1.0, REAL32, mavlink.MAV_PARAM_ERROR_DOES_NOT_EXIST),
+             (b'COM_OBL_RC_ACT', int_wire, mavlink.MAV_PARAM_TYPE_UINT8, mavlink.MAV_PARAM_ERROR_TYPE_UNSUPPORTED),
+             (b'COM_OBL_RC_ACT', 2.0, REAL32, mavlink.MAV_PARAM_ERROR_TYPE_MISMATCH),
+             (b'MIS_TAKEOFF_ALT', int_wire, INT32, mavlink.MAV_PARAM_ERROR_TYPE_MISMATCH)]
+    for name, value, wire_type, error in cases:
+        start = len(client.history)
+        client.send(client.mav.param_set_encode(client.target, 1, name, value, wire_type))
+        answer = client.wait_for(lambda: next((m for _, m in client.history[start:] if m.get_type() == 'PARAM_ERROR'),
+                                              None), 2.0, 'PARAM_ERROR for %s' % name.decode())
+        assert (answer.param_id, answer.param_index, answer.error) == (name.decode(), -1, error)
+        assert (answer.target_system, answer.target_component) == (client.mav.srcSystem, client.mav.srcComponent)
+        assert not param_values_since(client, start), 'nothing set, nothing echoed'
+    start = len(client.history)
+    client.send(client.mav.param_set_encode(0, 1, b'MIS_TAKEOFF_ALT', 3.0, REAL32))
+    client.sleep(0.5)
+    assert not param_values_since(client, start), 'system 0: PX4 does not take it'
+    for name in ('COM_OBL_RC_ACT', 'MIS_TAKEOFF_ALT'):
+        start = len(client.history)
+        client.send(client.mav.param_request_read_encode(client.target, 1, name.encode(), -1))
+        echo = wait_param_value(client, start, name)
+        assert param_codec.decode(echo.param_type, echo.param_value) == TABLE[name][1].default

@@ -35,10 +35,16 @@ C_HEADERS = {
                                                'mission_end': 12, 'commanded_action': 16}),
     'PROTOCOL_VERSION': (300, 217, 22, {'version': 0, 'min_version': 2, 'max_version': 4, 'spec_version_hash': 6,
                                         'library_version_hash': 14}),
+    # from pymavlink's mavgen run on mavlink 51a47ee9aed1's own common.xml (not this project's XML)
+    'PARAM_ERROR': (345, 209, 21, {'param_index': 0, 'target_system': 2, 'target_component': 3, 'param_id': 4,
+                                   'error': 20}),
 }
 # common.xml (mavlink 51a47ee9aed1, PX4 main's submodule): the command and enums the XML adds
 ADDED_NAMES = {'MAV_CMD_INJECT_FAILURE': 420, 'FAILURE_UNIT_SENSOR_GYRO': 0, 'FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL': 105,
                'FAILURE_TYPE_OK': 0, 'FAILURE_TYPE_OFF': 1, 'FAILURE_TYPE_INTERMITTENT': 7}
+MAV_PARAM_ERRORS = {'MAV_PARAM_ERROR_' + name: value for value, name in enumerate(
+    ('NO_ERROR', 'DOES_NOT_EXIST', 'VALUE_OUT_OF_RANGE', 'PERMISSION_DENIED', 'COMPONENT_NOT_FOUND', 'READ_ONLY',
+     'TYPE_UNSUPPORTED', 'TYPE_MISMATCH', 'READ_FAIL', 'ENUM_END'))}
 
 
 def _values(cls):
@@ -47,7 +53,10 @@ def _values(cls):
     for field, type_name in zip(cls.fieldnames, cls.fieldtypes):
         n = cls.array_lengths[cls.ordered_fieldnames.index(field)]
         sign = -1 if type_name.startswith('int') else 1
-        values[field] = [sign * (k + i) for i in range(n)] if n else sign * k
+        if type_name == 'char':
+            values[field] = bytes(ord('A') + (k + i) % 26 for i in range(n))
+        else:
+            values[field] = [sign * (k + i) for i in range(n)] if n else sign * k
         k += max(n, 1)
     return values
 
@@ -75,8 +84,8 @@ def test_a_bad_xml_is_refused_naming_the_file(tmp_path, monkeypatch):
 
 def test_it_is_pymavlinks_development_plus_the_additions_only():
     """Every message and enum value of pymavlink's development dialect is defined the same; the XML adds
-    the three messages and the names of ADDED_NAMES, nothing else."""
-    assert set(mavlink.mavlink_map) - set(pymavlink_development.mavlink_map) == {8, 300, 380}
+    the four messages, the names of ADDED_NAMES and MAV_PARAM_ERROR, nothing else."""
+    assert set(mavlink.mavlink_map) - set(pymavlink_development.mavlink_map) == {8, 300, 345, 380}
     for msg_id, theirs in pymavlink_development.mavlink_map.items():
         ours = mavlink.mavlink_map[msg_id]
         for attribute in ('msgname', 'fieldnames', 'ordered_fieldnames', 'fieldtypes', 'crc_extra', 'orders',
@@ -88,7 +97,9 @@ def test_it_is_pymavlinks_development_plus_the_additions_only():
     assert {name: getattr(mavlink, name) for name in names} == {name: getattr(pymavlink_development, name)
                                                                   for name in names}
     added = {name for name in dir(mavlink) if name.isupper()} - names - {'DIALECT'}
-    assert {name for name in added if not name.startswith(('FAILURE_', 'MAVLINK_MSG_ID_'))} == {'MAV_CMD_INJECT_FAILURE'}
+    assert {name for name in added if not name.startswith(('FAILURE_', 'MAVLINK_MSG_ID_', 'MAV_PARAM_ERROR_'))} == \
+        {'MAV_CMD_INJECT_FAILURE'}
+    assert {name: getattr(mavlink, name) for name in added if name.startswith('MAV_PARAM_ERROR_')} == MAV_PARAM_ERRORS
     assert {name: getattr(mavlink, name) for name in ADDED_NAMES} == ADDED_NAMES
     assert mavlink.WIRE_PROTOCOL_VERSION == '2.0'
 
@@ -110,7 +121,10 @@ def test_added_message_frames_as_the_c_library(name):
     values = _values(cls)
     body = wire.payload(cls(**values))
     for field, offset in offsets.items():
-        size = {'Q': 8, 'I': 4, 'i': 4, 'H': 2, 'B': 1}[cls.native_format.decode()[1 + cls.ordered_fieldnames.index(field)]]
+        if isinstance(values[field], bytes):
+            assert body[offset:offset + len(values[field])] == values[field], field
+            continue
+        size = {'Q': 8, 'I': 4, 'i': 4, 'H': 2, 'h': 2, 'B': 1}[cls.native_format.decode()[1 + cls.ordered_fieldnames.index(field)]]
         for i, value in enumerate(values[field] if isinstance(values[field], list) else [values[field]]):
             start = offset + i * size
             assert int.from_bytes(body[start:start + size], 'little', signed=True) == value, (field, i)
@@ -126,10 +140,11 @@ def test_added_message_round_trips_through_pymavlink_and_wire(name):
     parser = mavlink.MAVLink(None)
     parser.robust_parsing = True
     (decoded,) = parser.parse_buffer(frame)
-    assert decoded.get_type() == name and [getattr(decoded, f) for f in cls.fieldnames] == values
+    decoded_values = [v.decode() if isinstance(v, bytes) else v for v in values]  # a char field decodes to text
+    assert decoded.get_type() == name and [getattr(decoded, f) for f in cls.fieldnames] == decoded_values
     (split,) = wire.split(frame)
     assert split[0] == msg_id and wire.crc_ok(*split)
-    assert [getattr(wire.decode(*split), f) for f in cls.fieldnames] == values
+    assert [getattr(wire.decode(*split), f) for f in cls.fieldnames] == decoded_values
     assert wire.encode(getattr(sender, name.lower() + '_encode')(*values), sender.seq, 1, 1) == frame
 
 

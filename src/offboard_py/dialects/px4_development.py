@@ -2029,6 +2029,30 @@ enums["FAILURE_TYPE"][7] = EnumEntry("FAILURE_TYPE_INTERMITTENT", """The unit wo
 FAILURE_TYPE_ENUM_END = 8
 enums["FAILURE_TYPE"][8] = EnumEntry("FAILURE_TYPE_ENUM_END", """""")
 
+# MAV_PARAM_ERROR
+enums["MAV_PARAM_ERROR"] = Enum()
+enums["MAV_PARAM_ERROR"].bitmask = False
+MAV_PARAM_ERROR_NO_ERROR = 0
+enums["MAV_PARAM_ERROR"][0] = EnumEntry("MAV_PARAM_ERROR_NO_ERROR", """No error (not expected in PARAM_ERROR).""")
+MAV_PARAM_ERROR_DOES_NOT_EXIST = 1
+enums["MAV_PARAM_ERROR"][1] = EnumEntry("MAV_PARAM_ERROR_DOES_NOT_EXIST", """No parameter of that name or index.""")
+MAV_PARAM_ERROR_VALUE_OUT_OF_RANGE = 2
+enums["MAV_PARAM_ERROR"][2] = EnumEntry("MAV_PARAM_ERROR_VALUE_OUT_OF_RANGE", """The value is outside the parameter's range.""")
+MAV_PARAM_ERROR_PERMISSION_DENIED = 3
+enums["MAV_PARAM_ERROR"][3] = EnumEntry("MAV_PARAM_ERROR_PERMISSION_DENIED", """The caller may not change the parameter.""")
+MAV_PARAM_ERROR_COMPONENT_NOT_FOUND = 4
+enums["MAV_PARAM_ERROR"][4] = EnumEntry("MAV_PARAM_ERROR_COMPONENT_NOT_FOUND", """No such component.""")
+MAV_PARAM_ERROR_READ_ONLY = 5
+enums["MAV_PARAM_ERROR"][5] = EnumEntry("MAV_PARAM_ERROR_READ_ONLY", """The parameter cannot be written.""")
+MAV_PARAM_ERROR_TYPE_UNSUPPORTED = 6
+enums["MAV_PARAM_ERROR"][6] = EnumEntry("MAV_PARAM_ERROR_TYPE_UNSUPPORTED", """The component does not support the parameter type given.""")
+MAV_PARAM_ERROR_TYPE_MISMATCH = 7
+enums["MAV_PARAM_ERROR"][7] = EnumEntry("MAV_PARAM_ERROR_TYPE_MISMATCH", """The type given is not the parameter's.""")
+MAV_PARAM_ERROR_READ_FAIL = 8
+enums["MAV_PARAM_ERROR"][8] = EnumEntry("MAV_PARAM_ERROR_READ_FAIL", """The parameter could not be read.""")
+MAV_PARAM_ERROR_ENUM_END = 9
+enums["MAV_PARAM_ERROR"][9] = EnumEntry("MAV_PARAM_ERROR_ENUM_END", """""")
+
 # AIRSPEED_SENSOR_FLAGS
 enums["AIRSPEED_SENSOR_FLAGS"] = Enum()
 enums["AIRSPEED_SENSOR_FLAGS"].bitmask = True
@@ -5253,6 +5277,7 @@ MAVLINK_MSG_ID_BAD_DATA = -1
 MAVLINK_MSG_ID_UNKNOWN = -2
 MAVLINK_MSG_ID_LINK_NODE_STATUS = 8
 MAVLINK_MSG_ID_PROTOCOL_VERSION = 300
+MAVLINK_MSG_ID_PARAM_ERROR = 345
 MAVLINK_MSG_ID_TIME_ESTIMATE_TO_TARGET = 380
 MAVLINK_MSG_ID_MISSION_CHECKSUM = 53
 MAVLINK_MSG_ID_AIRSPEED = 295
@@ -5558,6 +5583,50 @@ class MAVLink_protocol_version_message(MAVLink_message):
 # Define name on the class for backwards compatibility (it is now msgname).
 # Done with setattr to hide the class variable from mypy.
 setattr(MAVLink_protocol_version_message, "name", mavlink_msg_deprecated_name_property())
+
+
+class MAVLink_param_error_message(MAVLink_message):
+    """
+    A parameter request that failed, and why. PX4 sends it for a
+    PARAM_SET it cannot apply.
+    """
+
+    id = MAVLINK_MSG_ID_PARAM_ERROR
+    msgname = "PARAM_ERROR"
+    fieldnames = ["target_system", "target_component", "param_id", "param_index", "error"]
+    ordered_fieldnames = ["param_index", "target_system", "target_component", "param_id", "error"]
+    fieldtypes = ["uint8_t", "uint8_t", "char", "int16_t", "uint8_t"]
+    fielddisplays_by_name: Dict[str, str] = {}
+    fieldenums_by_name: Dict[str, str] = {"error": "MAV_PARAM_ERROR"}
+    fieldunits_by_name: Dict[str, str] = {}
+    native_format = bytearray(b"<hBBcB")
+    orders = [1, 2, 3, 0, 4]
+    lengths = [1, 1, 1, 1, 1]
+    array_lengths = [0, 0, 0, 16, 0]
+    crc_extra = 209
+    unpacker = struct.Struct("<hBB16sB")
+    instance_field = None
+    instance_offset = -1
+
+    def __init__(self, target_system: int, target_component: int, param_id: bytes, param_index: int, error: int):
+        MAVLink_message.__init__(self, MAVLink_param_error_message.id, MAVLink_param_error_message.msgname)
+        self._fieldnames = MAVLink_param_error_message.fieldnames
+        self._instance_field = MAVLink_param_error_message.instance_field
+        self._instance_offset = MAVLink_param_error_message.instance_offset
+        self.target_system = target_system
+        self.target_component = target_component
+        self._param_id_raw = param_id
+        self.param_id = param_id.split(b"\x00", 1)[0].decode("ascii", errors="replace")
+        self.param_index = param_index
+        self.error = error
+
+    def pack(self, mav: "MAVLink", force_mavlink1: bool = False) -> bytes:
+        return self._pack(mav, self.crc_extra, self.unpacker.pack(self.param_index, self.target_system, self.target_component, self._param_id_raw, self.error), force_mavlink1=force_mavlink1)
+
+
+# Define name on the class for backwards compatibility (it is now msgname).
+# Done with setattr to hide the class variable from mypy.
+setattr(MAVLink_param_error_message, "name", mavlink_msg_deprecated_name_property())
 
 
 class MAVLink_time_estimate_to_target_message(MAVLink_message):
@@ -15727,6 +15796,7 @@ setattr(MAVLink_heartbeat_message, "name", mavlink_msg_deprecated_name_property(
 mavlink_map: Dict[int, Type[MAVLink_message]] = {
     MAVLINK_MSG_ID_LINK_NODE_STATUS: MAVLink_link_node_status_message,
     MAVLINK_MSG_ID_PROTOCOL_VERSION: MAVLink_protocol_version_message,
+    MAVLINK_MSG_ID_PARAM_ERROR: MAVLink_param_error_message,
     MAVLINK_MSG_ID_TIME_ESTIMATE_TO_TARGET: MAVLink_time_estimate_to_target_message,
     MAVLINK_MSG_ID_MISSION_CHECKSUM: MAVLink_mission_checksum_message,
     MAVLINK_MSG_ID_AIRSPEED: MAVLink_airspeed_message,
@@ -16403,6 +16473,34 @@ class MAVLink(object):
 
         """
         self.send(self.protocol_version_encode(version, min_version, max_version, spec_version_hash, library_version_hash), force_mavlink1=force_mavlink1)
+
+    def param_error_encode(self, target_system: int, target_component: int, param_id: bytes, param_index: int, error: int) -> MAVLink_param_error_message:
+        """
+        A parameter request that failed, and why. PX4 sends it for a PARAM_SET
+        it cannot apply.
+
+        target_system             : System ID of the requester. (type:uint8_t)
+        target_component          : Component ID of the requester. (type:uint8_t)
+        param_id                  : Parameter name (no NUL when 16 characters long). (type:char)
+        param_index               : Parameter index; -1 when the name identifies it. (type:int16_t)
+        error                     : Why the request failed. (type:uint8_t, values:MAV_PARAM_ERROR)
+
+        """
+        return MAVLink_param_error_message(target_system, target_component, param_id, param_index, error)
+
+    def param_error_send(self, target_system: int, target_component: int, param_id: bytes, param_index: int, error: int, force_mavlink1: bool = False) -> None:
+        """
+        A parameter request that failed, and why. PX4 sends it for a PARAM_SET
+        it cannot apply.
+
+        target_system             : System ID of the requester. (type:uint8_t)
+        target_component          : Component ID of the requester. (type:uint8_t)
+        param_id                  : Parameter name (no NUL when 16 characters long). (type:char)
+        param_index               : Parameter index; -1 when the name identifies it. (type:int16_t)
+        error                     : Why the request failed. (type:uint8_t, values:MAV_PARAM_ERROR)
+
+        """
+        self.send(self.param_error_encode(target_system, target_component, param_id, param_index, error), force_mavlink1=force_mavlink1)
 
     def time_estimate_to_target_encode(self, safe_return: int, land: int, mission_next_item: int, mission_end: int, commanded_action: int) -> MAVLink_time_estimate_to_target_message:
         """

@@ -448,11 +448,28 @@ class SimulatedPx4:
             self._reply(self._param_value(name))
 
     def _on_param_set(self, msg):
-        if not self._for_me(msg):
+        """PX4's MAVLink parameter manager: only for its own system id (not 0) and component 1 or 0;
+        _HASH_CHECK, an unknown name, a type other than INT32 and REAL32, or not the parameter's own,
+        get PARAM_ERROR on the request's link and change nothing; otherwise the value is set and
+        PARAM_VALUE tells every link the value in force."""
+        if msg.target_system != self.system_id or msg.target_component not in (0, 1):
+            self.counters['ignored_other_system'] += 1
             return
         name = msg.param_id
-        if name not in self.params.names:
-            self._text(mavlink.MAV_SEVERITY_WARNING, 'Parameter %s unknown' % name)
+        error = None
+        if name == sim_params.HASH_CHECK_NAME:
+            error = mavlink.MAV_PARAM_ERROR_READ_ONLY
+        elif name not in self.params.names:
+            error = mavlink.MAV_PARAM_ERROR_DOES_NOT_EXIST
+        elif msg.param_type not in (mavlink.MAV_PARAM_TYPE_INT32, mavlink.MAV_PARAM_TYPE_REAL32):
+            error = mavlink.MAV_PARAM_ERROR_TYPE_UNSUPPORTED
+        elif msg.param_type != self.params.definition(name).type:
+            error = mavlink.MAV_PARAM_ERROR_TYPE_MISMATCH
+        if error is not None:
+            log.warning('PARAM_SET %s (type %d) from system %d refused: PARAM_ERROR %d', name, msg.param_type,
+                        msg.get_srcSystem(), error)
+            self._reply(self.mav.param_error_encode(msg.get_srcSystem(), msg.get_srcComponent(),
+                                                    name.encode('ascii', 'replace'), -1, error))
             return
         d = self.params.definition(name)
         try:
