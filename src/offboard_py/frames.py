@@ -4,7 +4,8 @@ One place for every convention the bridge uses, as mavros (ftf) does it:
 - a world vector (position, velocity) swaps x and y and negates z: ENU <-> NED;
 - a body vector (rates, accelerations) negates y and z: FLU <-> FRD;
 - an orientation is q_ned_frd = q_NED_ENU * q_enu_flu * q_FLU_FRD (and back);
-- yaw_ned = pi/2 - yaw_enu, wrapped.
+- yaw_ned = pi/2 - yaw_enu, wrapped;
+- a Pose's orientation is first made the rotation mavros takes from it (pose_rotation).
 Quaternions are (x, y, z, w) tuples, the order of ROS messages. MAVLink's
 ATTITUDE_QUATERNION order (w, x, y, z) is converted at the edge. Pure functions.
 """
@@ -62,9 +63,41 @@ def quaternion_from_yaw(yaw):
 
 
 def quaternion_yaw(q):
-    """Yaw (rad) of a quaternion, ZYX convention. An all-zero quaternion gives 0, as in mavros."""
+    """Yaw (rad) of a quaternion, ZYX convention (mavros's ftf::quaternion_get_yaw)."""
     x, y, z, w = q
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+# How far |q|^2 may be from 1 for q to be taken as the rotation it is: mavros's rotation of such a q
+# differs from q's own by under this many radians.
+UNIT_TOLERANCE = 1e-6
+
+
+def pose_rotation(q):
+    """The rotation mavros takes from a Pose's orientation q (x, y, z, w), as a unit quaternion.
+
+    mavros's setpoint_position/local and setpoint_attitude/attitude read a Pose through
+    tf::poseMsgToEigen into an Eigen::Affine3d and take Eigen::Quaterniond(tr.rotation()):
+    Eigen builds the matrix of q without normalising it, and rotation() keeps the rotation of
+    that matrix's polar decomposition (an SVD). For q = s*u, u a unit quaternion turning by
+    theta about axis a, the matrix is (1 - s^2) I + s^2 R_u: a scaling in the plane normal to a
+    times a rotation about a by phi = atan2(s^2 sin(theta), 1 - s^2 + s^2 cos(theta)), which in
+    q's own numbers is atan2(2 w |v|, 1 - 2 |v|^2), v = (x, y, z). So a user's unnormalised
+    quaternion does not turn the vehicle by its own angle, and the PX4 tutorial's all-zero one
+    (no axis) is the identity. Where the matrix has no rotation at all (w = 0, |v|^2 = 1/2:
+    a projection onto a) the identity is given; Eigen 3.4's SVD gave the identity there too.
+    Unit quaternions (within UNIT_TOLERANCE) are returned as they are.
+    """
+    x, y, z, w = q
+    v2 = x * x + y * y + z * z
+    if abs(v2 + w * w - 1.0) <= UNIT_TOLERANCE:
+        return q
+    if v2 == 0.0:
+        return (0.0, 0.0, 0.0, 1.0)
+    v = math.sqrt(v2)
+    half = 0.5 * math.atan2(2.0 * w * v, 1.0 - 2.0 * v2)  # atan2(0, 0) = 0: the identity
+    k = math.sin(half) / v
+    return (x * k, y * k, z * k, math.cos(half))
 
 
 def orientation_enu_to_ned(q_enu_flu):

@@ -751,6 +751,20 @@ def test_setpoint_position_goes_out_as_position_and_yaw_in_ned():
     assert len(rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')) == 1 and rig.plugin.rejected == 1
 
 
+def test_setpoint_position_takes_the_rotation_mavros_takes_from_an_unnormalised_quaternion():
+    """The PX4 tutorial's pose leaves the orientation all zero: mavros's Eigen makes it the identity
+    (facing east, NED yaw +90 deg). A 90 deg yaw quaternion at half its length turns by 45 deg there
+    (ENU yaw 45 deg, NED yaw 45 deg)."""
+    rig = Rig(setpoint.Setpoint)
+    pose = PoseStamped()
+    pose.pose.position.z = 2.0
+    rig.ros.subscriptions['~setpoint_position/local'](pose)
+    pose.pose.orientation.z, pose.pose.orientation.w = 0.5, 0.5
+    rig.ros.subscriptions['~setpoint_position/local'](pose)
+    yaws = [m.yaw for m in rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')]
+    assert yaws == pytest.approx([math.pi / 2, math.pi / 4])
+
+
 # -- the topics mavros users reach for: global position, raw GPS, odometry, battery, targets ------
 
 HOME_E7 = (473977420, 85455940)

@@ -35,9 +35,38 @@ def test_orientation_round_trip_with_roll_and_pitch():
     assert abs(sum(a * b for a, b in zip(q, back))) == pytest.approx(1.0)
 
 
-def test_zero_quaternion_gives_north_like_mavros():
-    """The tutorial streams an all-zero quaternion; mavros turns it into NED yaw 0."""
-    assert frames.quaternion_yaw(frames.orientation_enu_to_ned((0.0, 0.0, 0.0, 0.0))) == 0.0
+def test_zero_quaternion_faces_east_like_mavros():
+    """The tutorial streams an all-zero quaternion; mavros's Eigen makes it the identity (ENU yaw 0,
+    facing east), which is NED yaw +90 deg."""
+    assert frames.pose_rotation((0.0, 0.0, 0.0, 0.0)) == (0.0, 0.0, 0.0, 1.0)
+    yaw = frames.quaternion_yaw(frames.orientation_enu_to_ned(frames.pose_rotation((0.0, 0.0, 0.0, 0.0))))
+    assert yaw == pytest.approx(math.pi / 2)
+
+
+# Quaterniond(Affine3d(Translation3d(1, 2, 3) * Quaterniond(w, x, y, z)).rotation()) from Eigen 3.4, as
+# mavros 1.21 computes it, for orientations (x, y, z, w) that are not unit quaternions
+EIGEN_ROTATIONS = [
+    ((0.0, 0.0, 0.0, 2.0), (0.0, 0.0, 0.0, 1.0)),
+    ((0.0, 0.0, 0.5, 0.5), (0.0, 0.0, 0.38268343236508978, 0.92387953251128674)),    # 45 deg, not 90
+    ((0.0, 0.0, 2.0, 0.0), (0.0, 0.0, 1.0, 0.0)),
+    ((0.0, 0.0, 0.7, 0.0), (0.0, 0.0, 0.0, 1.0)),                                     # |v|^2 < 1/2: none
+    ((0.2, -0.3, 0.4, 1.5), (0.22718520408637655, -0.34077780612956476, 0.45437040817275298, 0.79107831601597967)),
+    ((0.3, 0.1, -0.2, 0.25), (0.10163879135580965, 0.033879597118603222, -0.06775919423720643, 0.99193266938191726)),
+    ((0.5, 0.5, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),                                     # the singular case
+]
+
+
+@pytest.mark.parametrize('q, expected', EIGEN_ROTATIONS)
+def test_pose_rotation_is_eigens(q, expected):
+    got = frames.pose_rotation(q)
+    assert got == pytest.approx(expected, abs=1e-12) or tuple(-c for c in got) == pytest.approx(expected, abs=1e-12)
+
+
+def test_pose_rotation_leaves_unit_quaternions_as_they_are():
+    q = (0.1, -0.2, 0.3, 0.927)
+    n = math.sqrt(sum(c * c for c in q))
+    q = tuple(c / n for c in q)
+    assert frames.pose_rotation(q) is q
 
 
 def test_wrap_pi():

@@ -1,8 +1,9 @@
 """mavros setpoint_position and setpoint_raw: ROS setpoints out as SET_POSITION_TARGET_LOCAL_NED.
 
 - ~setpoint_position/local (PoseStamped, ENU): frame LOCAL_NED, type_mask position and yaw
-  (0x9F8), position ENU->NED, yaw from the orientation converted to NED/FRD. frame_id is
-  ignored, as in mavros.
+  (0x9F8), position ENU->NED, yaw from the orientation converted to NED/FRD, after taking from
+  it the rotation mavros's Eigen takes (frames.pose_rotation: the all-zero quaternion is the
+  identity, facing east). frame_id is ignored, as in mavros.
 - ~setpoint_raw/local (PositionTarget): LOCAL_NED (and LOCAL_OFFSET_NED) vectors ENU->NED,
   BODY_NED (and BODY_OFFSET_NED) vectors FLU->FRD; yaw_ned = pi/2 - yaw, yaw_rate negated;
   type_mask passed through.
@@ -78,7 +79,7 @@ class Setpoint:
             self.reject('setpoint_position/local', 'a NaN or infinite value')
             return
         north, east, down = frames.enu_to_ned(p.x, p.y, p.z)
-        yaw = frames.quaternion_yaw(frames.orientation_enu_to_ned((q.x, q.y, q.z, q.w)))
+        yaw = frames.quaternion_yaw(frames.orientation_enu_to_ned(frames.pose_rotation((q.x, q.y, q.z, q.w))))
         b = self.bridge
         b.send(b.mav.set_position_target_local_ned_encode(
             _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, mavlink.MAV_FRAME_LOCAL_NED,

@@ -3,13 +3,16 @@
 
 mavros pairs the two topics by time stamp (message_filters, approximate time). Here each
 attitude goes out with the latest thrust whose stamp is within PAIR_WINDOW_S of it; an
-attitude without such a thrust waits for the next one, and is logged (throttled).
+attitude without such a thrust waits for the next one, and is logged (throttled). The
+orientation is the rotation mavros's Eigen takes from it (frames.pose_rotation).
 """
 
 import math
 
 from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import AttitudeTarget, Thrust
+
+from offboard_py import frames
 
 PAIR_WINDOW_S = 0.5
 IGNORE_RATES = AttitudeTarget.IGNORE_ROLL_RATE | AttitudeTarget.IGNORE_PITCH_RATE | AttitudeTarget.IGNORE_YAW_RATE
@@ -40,4 +43,4 @@ class SetpointAttitude:
             return
         q = msg.pose.orientation
         plugin.send_attitude_target('setpoint_attitude/attitude', msg.header.stamp, IGNORE_RATES,
-                                    (q.x, q.y, q.z, q.w), (0.0, 0.0, 0.0), thrust.thrust)
+                                    frames.pose_rotation((q.x, q.y, q.z, q.w)), (0.0, 0.0, 0.0), thrust.thrust)
