@@ -48,6 +48,12 @@ def yaw_enu_to_ned(yaw):
 yaw_ned_to_enu = yaw_enu_to_ned
 
 
+def yaw_flu_to_frd(yaw):
+    """A yaw in a body frame (setpoint_raw/local's BODY_NED): mavros takes the yaw of
+    q_x(pi) * q_yaw, which is -yaw, wrapped."""
+    return wrap_pi(-yaw)
+
+
 def quaternion_multiply(a, b):
     ax, ay, az, aw = a
     bx, by, bz, bw = b

@@ -753,7 +753,7 @@ def test_setpoint_position_goes_out_as_position_and_yaw_in_ned():
 
 def test_setpoint_position_takes_the_rotation_mavros_takes_from_an_unnormalised_quaternion():
     """The PX4 tutorial's pose leaves the orientation all zero: mavros's Eigen makes it the identity
-    (facing east, NED yaw +90 deg). A 90 deg yaw quaternion at half its length turns by 45 deg there
+    (facing east, NED yaw +90 deg). A 90 deg yaw quaternion of length sqrt(1/2) turns by 45 deg there
     (ENU yaw 45 deg, NED yaw 45 deg)."""
     rig = Rig(setpoint.Setpoint)
     pose = PoseStamped()
@@ -763,6 +763,28 @@ def test_setpoint_position_takes_the_rotation_mavros_takes_from_an_unnormalised_
     rig.ros.subscriptions['~setpoint_position/local'](pose)
     yaws = [m.yaw for m in rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')]
     assert yaws == pytest.approx([math.pi / 2, math.pi / 4])
+
+
+@pytest.mark.parametrize('frame', [mavlink.MAV_FRAME_BODY_NED, mavlink.MAV_FRAME_BODY_OFFSET_NED])
+def test_setpoint_raw_local_in_a_body_frame_negates_yaw_and_flips_y_and_z(frame):
+    """mavros sends a body frame's yaw as the yaw of q_x(pi) * q_yaw, -yaw (not the world's pi/2 - yaw),
+    and its vectors FLU -> FRD."""
+    from mavros_msgs.msg import PositionTarget
+    rig = Rig(setpoint.Setpoint)
+    msg = PositionTarget(coordinate_frame=frame, type_mask=0)
+    msg.position.x, msg.position.y, msg.position.z = 1.0, 2.0, 3.0
+    msg.velocity.x, msg.velocity.y, msg.velocity.z = 0.1, 0.2, 0.3
+    msg.acceleration_or_force.x, msg.acceleration_or_force.y, msg.acceleration_or_force.z = 0.4, 0.5, 0.6
+    msg.yaw, msg.yaw_rate = 0.3, 0.2
+    rig.ros.subscriptions['~setpoint_raw/local'](msg)
+    [sent] = rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')
+    assert sent.coordinate_frame == frame
+    assert (sent.x, sent.y, sent.z, sent.vx, sent.vy, sent.vz, sent.afx, sent.afy, sent.afz) == pytest.approx(
+        (1.0, -2.0, -3.0, 0.1, -0.2, -0.3, 0.4, -0.5, -0.6))
+    assert (sent.yaw, sent.yaw_rate) == pytest.approx((-0.3, -0.2))
+    msg.coordinate_frame = mavlink.MAV_FRAME_LOCAL_NED
+    rig.ros.subscriptions['~setpoint_raw/local'](msg)
+    assert rig.fcu.got('SET_POSITION_TARGET_LOCAL_NED')[-1].yaw == pytest.approx(math.pi / 2 - 0.3), 'world: pi/2 - yaw'
 
 
 # -- the topics mavros users reach for: global position, raw GPS, odometry, battery, targets ------

@@ -4,9 +4,10 @@
   (0x9F8), position ENU->NED, yaw from the orientation converted to NED/FRD, after taking from
   it the rotation mavros's Eigen takes (frames.pose_rotation: the all-zero quaternion is the
   identity, facing east). frame_id is ignored, as in mavros.
-- ~setpoint_raw/local (PositionTarget): LOCAL_NED (and LOCAL_OFFSET_NED) vectors ENU->NED,
-  BODY_NED (and BODY_OFFSET_NED) vectors FLU->FRD; yaw_ned = pi/2 - yaw, yaw_rate negated;
-  type_mask passed through.
+- ~setpoint_raw/local (PositionTarget): LOCAL_NED (and LOCAL_OFFSET_NED) vectors ENU->NED and
+  yaw_ned = pi/2 - yaw; BODY_NED (and BODY_OFFSET_NED) vectors FLU->FRD and yaw negated (mavros
+  turns the yaw's quaternion by 180 deg about x: transform_orientation_absolute_frame_aircraft_baselink);
+  yaw_rate negated in both; type_mask passed through.
 - ~setpoint_velocity/cmd_vel (TwistStamped) and cmd_vel_unstamped (Twist), ENU: frame
   LOCAL_NED, type_mask velocity and yaw rate (0x5C7), as mavros's setpoint_velocity.
 - ~setpoint_raw/target_local (PositionTarget, ENU) from POSITION_TARGET_LOCAL_NED: what the
@@ -93,9 +94,11 @@ class Setpoint:
             return
         # PX4 ignores what the mask ignores; send zeros there rather than NaN
         p, v, a = (_zero_unfinite(c) for c in (p, v, a))
-        convert = frames.flu_to_frd if msg.coordinate_frame in BODY_FRAMES else frames.enu_to_ned
+        body = msg.coordinate_frame in BODY_FRAMES
+        convert = frames.flu_to_frd if body else frames.enu_to_ned
         position, velocity, accel = (convert(c.x, c.y, c.z) for c in (p, v, a))
-        yaw = frames.yaw_enu_to_ned(msg.yaw) if math.isfinite(msg.yaw) else 0.0
+        yaw_to_ned = frames.yaw_flu_to_frd if body else frames.yaw_enu_to_ned
+        yaw = yaw_to_ned(msg.yaw) if math.isfinite(msg.yaw) else 0.0
         yaw_rate = -msg.yaw_rate if math.isfinite(msg.yaw_rate) else 0.0
         b = self.bridge
         b.send(b.mav.set_position_target_local_ned_encode(
