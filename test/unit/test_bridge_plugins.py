@@ -1170,6 +1170,28 @@ def test_attitude_setpoints_go_out_in_ned_and_targets_come_back_enu():
     assert (target.body_rate.x, target.body_rate.y, target.body_rate.z) == pytest.approx((0.1, -0.2, -0.3))
 
 
+def test_raw_attitude_clamps_thrust_and_sends_a_zero_quaternion_as_it_is():
+    """mavros 1.21 sends thrust * thrust_scaling (px4_config.yaml: 1.0) clamped to 0..1, and the
+    orientation as ftf::to_eigen takes it: an all-zero quaternion goes out all zero."""
+    from mavros_msgs.msg import AttitudeTarget
+    rig = Rig(setpoint.Setpoint)
+    for thrust in (1.5, -0.2, 0.4):
+        rig.ros.subscriptions['~setpoint_raw/attitude'](AttitudeTarget(type_mask=7, thrust=thrust))
+    sent = rig.fcu.got('SET_ATTITUDE_TARGET')
+    assert [m.thrust for m in sent] == pytest.approx([1.0, 0.0, 0.4])
+    assert list(sent[0].q) == [0.0, 0.0, 0.0, 0.0]
+
+
+def test_raw_attitude_thrust_scaling_scales_and_negative_sends_no_thrust():
+    from mavros_msgs.msg import AttitudeTarget
+    rig = Rig(setpoint.Setpoint, setpoint_raw__thrust_scaling=0.5)
+    rig.ros.subscriptions['~setpoint_raw/attitude'](AttitudeTarget(type_mask=7, thrust=0.8))
+    assert [m.thrust for m in rig.fcu.got('SET_ATTITUDE_TARGET')] == pytest.approx([0.4])
+    rig = Rig(setpoint.Setpoint, setpoint_raw__thrust_scaling=-1.0)
+    rig.ros.subscriptions['~setpoint_raw/attitude'](AttitudeTarget(type_mask=7, thrust=0.8))
+    assert rig.fcu.got('SET_ATTITUDE_TARGET') == [] and rig.plugin.rejected == 1
+
+
 def test_raw_global_setpoint():
     from mavros_msgs.msg import GlobalPositionTarget
     rig = Rig(setpoint.Setpoint)

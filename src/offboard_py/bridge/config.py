@@ -44,7 +44,9 @@ def read_config(get):
     for name, default, low, high in (('conn/timeout', 10.0, 0.1, 3600.0), ('conn/heartbeat_rate', 1.0, 0.0, 100.0),
                                      ('cmd/command_ack_timeout', 5.0, 0.1, 600.0),
                                      ('global_position/gps_uere', 1.0, 0.0, 1000.0),
-                                     ('global_position/rot_covariance', 99999.0, 0.0, 1e12)):
+                                     ('global_position/rot_covariance', 99999.0, 0.0, 1e12),
+                                     # px4_config.yaml's 1.0; below 0, as mavros without it, thrust is not sent
+                                     ('setpoint_raw/thrust_scaling', 1.0, -1e6, 1e6)):
         cfg[name] = float(_number(name, get(name, default), low, high))
     read_time_config(get, cfg)
     read_imu_config(get, cfg)

@@ -13,7 +13,9 @@
 - ~setpoint_raw/target_local (PositionTarget, ENU) from POSITION_TARGET_LOCAL_NED: what the
   FCU's controller tracks; ~setpoint_raw/target_attitude (AttitudeTarget) from ATTITUDE_TARGET.
 - ~setpoint_raw/attitude (AttitudeTarget, ENU/FLU) out as SET_ATTITUDE_TARGET (orientation to
-  NED/FRD, body rates FLU->FRD, thrust as given: px4_config's thrust_scaling 1.0);
+  NED/FRD as it is, unnormalised or all zero, as mavros's ftf::to_eigen takes it; body rates
+  FLU->FRD; thrust times ~setpoint_raw/thrust_scaling (px4_config's 1.0) clamped to 0..1, as
+  mavros; with a negative scaling, mavros's "unset", a setpoint with thrust is not sent);
   ~setpoint_raw/global (GlobalPositionTarget) out as SET_POSITION_TARGET_GLOBAL_INT
   (lat/lon *1e7, vectors ENU->NED, yaw and yaw rate to NED).
 A setpoint with a NaN or infinite number in a field it uses is not sent, and is logged
@@ -136,8 +138,7 @@ class Setpoint:
         if not _finite(*used):
             self.reject(topic, 'a NaN or infinite value')
             return
-        q = q if _finite(*q) and any(q) else (0.0, 0.0, 0.0, 1.0)
-        q_ned = frames.orientation_enu_to_ned(q)
+        q_ned = frames.orientation_enu_to_ned(q if _finite(*q) else (0.0, 0.0, 0.0, 0.0))
         rates = frames.flu_to_frd(*(r if math.isfinite(r) else 0.0 for r in rates))
         b = self.bridge
         b.send(b.mav.set_attitude_target_encode(
@@ -146,8 +147,14 @@ class Setpoint:
 
     def _on_raw_attitude(self, msg):
         q, w = msg.orientation, msg.body_rate
+        scaling = self.bridge.cfg['setpoint_raw/thrust_scaling']
+        if scaling < 0.0 and msg.thrust != 0.0:
+            self.reject('setpoint_raw/attitude', 'thrust while ~setpoint_raw/thrust_scaling is negative (unset)')
+            return
+        thrust = msg.thrust * scaling
+        thrust = min(1.0, max(0.0, thrust)) if math.isfinite(thrust) else thrust
         self.send_attitude_target('setpoint_raw/attitude', msg.header.stamp, msg.type_mask, (q.x, q.y, q.z, q.w),
-                                  (w.x, w.y, w.z), msg.thrust)
+                                  (w.x, w.y, w.z), thrust)
 
     def _on_raw_global(self, msg):
         values = {'position.x': msg.latitude, 'position.y': msg.longitude, 'position.z': msg.altitude,
