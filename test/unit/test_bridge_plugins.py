@@ -156,6 +156,7 @@ def test_our_heartbeat_is_an_onboard_controller_at_heartbeat_rate():
 
 def test_set_mode_sends_custom_mode_and_keeps_armed():
     rig = Rig(sys_status.SysStatus)
+    rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED))
     assert rig.call('~set_mode', SetModeRequest(custom_mode='offboard')).mode_sent
     rig.fcu.send(heartbeat(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_SAFETY_ARMED))
     assert rig.call('~set_mode', SetModeRequest(custom_mode='0x%x' % AUTO_LOITER)).mode_sent
@@ -165,8 +166,44 @@ def test_set_mode_sends_custom_mode_and_keeps_armed():
 
 def test_set_mode_refuses_an_unknown_mode():
     rig = Rig(sys_status.SysStatus)
+    rig.fcu.send(heartbeat())
     assert not rig.call('~set_mode', SetModeRequest(custom_mode='HOVER')).mode_sent
     assert rig.fcu.got('SET_MODE') == []
+
+
+def test_set_mode_before_any_heartbeat_is_not_sent():
+    """mavros picks the mode table by the FCU's autopilot; before a HEARTBEAT it has none
+    ("MODE: Unsupported FCU") and answers mode_sent false without sending."""
+    rig = Rig(sys_status.SysStatus)
+    assert not rig.call('~set_mode', SetModeRequest(custom_mode='OFFBOARD')).mode_sent
+    assert rig.fcu.got('SET_MODE') == []
+
+
+@pytest.mark.parametrize('text, custom_mode', [
+    ('6abc', 6), ('-1', 0xFFFFFFFF), (' 7', 7), ('0x10', 16), ('010', 8), ('0xZ', 0), ('+5', 5),
+    ('auto.loiter', AUTO_LOITER), ('2147483647', 0x7FFFFFFF)])
+def test_set_mode_reads_numbers_as_mavros_s_std_stoi(text, custom_mode):
+    rig = Rig(sys_status.SysStatus)
+    rig.fcu.send(heartbeat())
+    assert rig.call('~set_mode', SetModeRequest(custom_mode=text)).mode_sent
+    assert rig.fcu.got('SET_MODE')[-1].custom_mode == custom_mode
+
+
+@pytest.mark.parametrize('text', [' OFFBOARD', 'OFFBOARD ', 'x6', '-', 'AUTO_LOITER'])
+def test_set_mode_refuses_what_is_neither_an_exact_name_nor_a_number(text):
+    rig = Rig(sys_status.SysStatus)
+    rig.fcu.send(heartbeat())
+    assert not rig.call('~set_mode', SetModeRequest(custom_mode=text)).mode_sent
+    assert rig.fcu.got('SET_MODE') == []
+
+
+def test_set_mode_with_a_number_outside_int_fails_the_call_as_mavros_s_stoi_throws():
+    rig = Rig(sys_status.SysStatus)
+    rig.fcu.send(heartbeat())
+    with pytest.raises(rospy.ServiceException, match='outside a 32-bit int'):
+        rig.call('~set_mode', SetModeRequest(custom_mode='4294967296'))
+    assert rig.fcu.got('SET_MODE') == []
+    assert rig.call('~set_mode', SetModeRequest(custom_mode='OFFBOARD')).mode_sent, 'the service still answers'
 
 
 # -- command -----------------------------------------------------------------------------------

@@ -3,8 +3,11 @@
 - Every HEARTBEAT from the target system and component restarts the `conn/timeout` timer
   and publishes State (connected, armed/guided/manual_input from base_mode, the PX4 mode
   string, system_status). On expiry, one "disconnected" State. One at start too.
-- ~set_mode upper-cases custom_mode and looks it up (a number is taken as is); unknown:
-  mode_sent=false. Known: one SET_MODE is sent, no acknowledgement is awaited.
+- ~set_mode reads custom_mode as mavros's cmode_from_str: nothing before the FCU's first
+  HEARTBEAT names a PX4 autopilot ("MODE: Unsupported FCU", mode_sent=false); upper-cased, an
+  exact mode name, else the number std::stoi reads from it; neither: mode_sent=false; a number
+  outside int: the call fails, as mavros's uncaught exception makes it fail. Known: one SET_MODE
+  is sent, no acknowledgement is awaited.
 - Our own HEARTBEAT at conn/heartbeat_rate, as mavros's: ONBOARD_CONTROLLER, autopilot INVALID,
   base_mode MAV_MODE_MANUAL_ARMED (192), system_status ACTIVE (reference/px4-sitl-measured.md,
   "Recorded conversations": real mavros's HEARTBEAT carries base_mode 192).
@@ -79,16 +82,44 @@ def system_status(st):
     return level, message, values
 
 
+C_SPACE = ' \t\n\v\f\r'
+INT_MIN, INT_MAX = -2 ** 31, 2 ** 31 - 1
+
+
+def c_stoi(text):
+    """std::stoi(text, nullptr, 0), as mavros reads a mode number: leading white space, a sign, then
+    hex after 0x, octal after 0, else decimal, as far as the digits go ('6ABC' is 6, '010' is 8).
+    None where no number starts the text (stoi's invalid_argument); OverflowError outside int
+    (its out_of_range)."""
+    rest = text.lstrip(C_SPACE)
+    sign = -1 if rest[:1] == '-' else 1
+    if rest[:1] in ('+', '-'):
+        rest = rest[1:]
+    if rest[:2] in ('0x', '0X') and rest[2:3] and rest[2] in '0123456789abcdefABCDEF':
+        base, rest = 16, rest[2:]
+    else:
+        base = 8 if rest[:1] == '0' else 10
+    allowed = '0123456789abcdefABCDEF'[:base + (6 if base == 16 else 0)]
+    end = 0
+    while end < len(rest) and rest[end] in allowed:
+        end += 1
+    if end == 0:
+        return None
+    value = sign * int(rest[:end], base)
+    if not INT_MIN <= value <= INT_MAX:
+        raise OverflowError('%s is outside a 32-bit int' % rest[:end])
+    return value
+
+
 def custom_mode_from_string(text):
-    """The custom_mode value for a SetMode request string, or None when unknown."""
-    name = text.strip().upper()
+    """The custom_mode for a SetMode request string as mavros's cmode_from_str finds it in PX4's
+    table: upper-cased, an exact name, else the number stoi reads, as uint32 ('-1' is 0xFFFFFFFF).
+    None when neither; OverflowError for a number outside int, which mavros does not catch."""
+    name = ''.join(c.upper() if 'a' <= c <= 'z' else c for c in text)  # C's toupper: ASCII only
     if name in px4_modes.MODES:
         return px4_modes.encode(name)
-    try:
-        value = int(name, 0)
-    except ValueError:
-        return None
-    return value if 0 <= value <= 0xFFFFFFFF else None
+    value = c_stoi(name)
+    return None if value is None else value & 0xFFFFFFFF
 
 
 class SysStatus:
@@ -220,9 +251,19 @@ class SysStatus:
         base_mode = req.base_mode
         custom_mode = 0
         if req.custom_mode:
-            custom_mode = custom_mode_from_string(req.custom_mode)
+            if self.last_heartbeat.autopilot != mavlink.MAV_AUTOPILOT_PX4:
+                # mavros picks its mode table by the autopilot of the last HEARTBEAT: none yet, no table
+                rospy.logerr('MODE: Unsupported FCU')
+                return SetModeResponse(mode_sent=False)
+            try:
+                custom_mode = custom_mode_from_string(req.custom_mode)
+            except OverflowError as err:
+                # mavros's std::stoi throws out of its service callback: the call fails
+                rospy.logerr('MODE: mode number out of range: %s', err)
+                raise rospy.ServiceException('set_mode: custom_mode %r: %s' % (req.custom_mode, err))
             if custom_mode is None:
                 rospy.logerr('MODE: Unknown mode: %s', req.custom_mode)
+                rospy.loginfo('MODE: Known modes are: %s', ' '.join(px4_modes.MODES))
                 return SetModeResponse(mode_sent=False)
             base_mode |= mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
             if self.armed():
