@@ -395,6 +395,23 @@ def test_mission_push_sends_items_as_mission_item_int():
     assert [wp.command for wp in published.waypoints] == [mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT]
 
 
+def test_mission_push_converts_x_and_y_as_mavros_s_int32_cast(caplog):
+    """mavros sends int32_t(x_lat * factor): truncated toward zero; a NaN or out-of-range value is x86's
+    INT32_MIN (0x80000000), with the push answered and a warning naming the field; the factor is 1e7 for
+    global frames, 1e4 for local ones and 1 for the rest (MAV_FRAME_MISSION)."""
+    rig = Rig(mission.Mission)
+    fcu = MissionFcu(rig.fcu)
+    plan = [waypoint(mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_WAYPOINT, 47.39774196, -8.54559386, 10.0),
+            waypoint(mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_WAYPOINT, float('nan'), 1000.0, 10.0),
+            waypoint(mavlink.MAV_FRAME_MISSION, mavlink.MAV_CMD_NAV_WAYPOINT, 3.7, -2.5, 0.0)]
+    response = rig.call('~mission/push', WaypointPushRequest(waypoints=plan))
+    assert (response.success, response.wp_transfered) == (True, 3)
+    assert [(item.x, item.y) for item in fcu.items] == [(473977419, -85455938), (-2 ** 31, -2 ** 31), (3, -2)]
+    warnings = [r.getMessage() for r in caplog.records if r.levelname == 'WARNING']
+    assert any('item 1' in w and 'x_lat' in w for w in warnings) and any('item 1' in w and 'y_long' in w
+                                                                         for w in warnings), warnings
+
+
 def test_mission_push_answers_a_legacy_request_with_mission_item():
     rig = Rig(mission.Mission)
     fcu = MissionFcu(rig.fcu, legacy=True)
@@ -534,6 +551,28 @@ def test_param_set_sends_an_integer_bytewise_and_waits_for_the_echo():
     [sent] = rig.fcu.got('PARAM_SET')
     assert sent.param_type == mavlink.MAV_PARAM_TYPE_INT32
     assert struct.pack('<f', sent.param_value) == struct.pack('<i', 7)
+
+
+@pytest.mark.parametrize('param_id, field, value, on_wire', [
+    ('COM_RCL_EXCEPT', 'integer', 4294967297, int32_on_wire(1)),          # static_cast<int>: the low 32 bits
+    ('COM_RCL_EXCEPT', 'integer', -4294967295, int32_on_wire(1)),
+    ('COM_RCL_EXCEPT', 'real', 1e12, int32_on_wire(-2 ** 31)),            # int32_t(double) out of range on x86
+    ('MPC_XY_VEL_MAX', 'real', 1e40, math.inf)])                          # a double beyond float: inf
+def test_param_set_of_a_value_the_wire_cannot_hold_answers_and_sends_what_mavros_casts(param_id, field, value,
+                                                                                       on_wire, caplog):
+    rig = Rig(param.Param)
+    index = [name for name, _kind, _value in PARAMS].index(param_id)
+    rig.fcu.send(param_value(index))
+    rig.fcu.answers['PARAM_SET'] = lambda m: [BUILD.param_value_encode(m.param_id.encode(), m.param_value,
+                                                                             m.param_type, len(PARAMS), index)]
+    request = ParamSetRequest(param_id=param_id)
+    setattr(request.value, field, value)
+    response = rig.call('~param/set', request)
+    [sent] = rig.fcu.got('PARAM_SET')
+    assert struct.pack('<f', sent.param_value) == struct.pack('<f', on_wire)
+    assert response.value.integer or response.value.real, 'answered with the FCU\'s echo'
+    assert any(param_id in r.getMessage() and 'value.' + field in r.getMessage() for r in caplog.records
+               if r.levelname == 'WARNING'), 'a warning names the field'
 
 
 def answer_read(m):

@@ -13,6 +13,7 @@ rallypoint plugins publish them after a pull; their pull/push/clear services are
 A transfer runs in the service thread; the receive thread hands it the messages.
 """
 
+import math
 import queue
 import threading
 
@@ -21,13 +22,22 @@ from mavros_msgs.msg import Waypoint, WaypointList, WaypointReached
 from mavros_msgs.srv import (WaypointClear, WaypointClearResponse, WaypointPull, WaypointPullResponse, WaypointPush,
                              WaypointPushResponse, WaypointSetCurrent, WaypointSetCurrentResponse)
 
+from offboard_py.bridge import c_casts
 from offboard_py.dialect import mavlink
 
 # frames whose x/y are latitude/longitude: MISSION_ITEM_INT carries them in degrees * 1e7
 GLOBAL_FRAMES = frozenset((mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
                            mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
                            mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT))
-FRAME_LOCAL_SCALE = 1e4            # MISSION_ITEM_INT: local x/y are metres * 1e4
+# MISSION_ITEM_INT's x/y scale as mavros's waypoint_encode_factor gives it: local frames metres * 1e4,
+# any other frame (MISSION among them) 1
+LOCAL_FRAMES = frozenset((mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_ENU, mavlink.MAV_FRAME_LOCAL_OFFSET_NED,
+                          mavlink.MAV_FRAME_BODY_NED, mavlink.MAV_FRAME_BODY_OFFSET_NED, mavlink.MAV_FRAME_BODY_FRD,
+                          mavlink.MAV_FRAME_LOCAL_FRD, mavlink.MAV_FRAME_LOCAL_FLU))
+
+
+def encode_factor(frame):
+    return 1e7 if frame in GLOBAL_FRAMES else 1e4 if frame in LOCAL_FRAMES else 1.0
 STEP_TIMEOUT_S, STEP_RETRIES = 1.0, 3
 PULL_AFTER_CONNECT_S = 15.0
 # what is pulled after the connection, in mavros's order, with its log prefix and name
@@ -51,8 +61,8 @@ def waypoint_from_item(item):
         bool(item.autocontinue)
     wp.param1, wp.param2, wp.param3, wp.param4 = item.param1, item.param2, item.param3, item.param4
     if item.get_type() == 'MISSION_ITEM_INT':
-        scale = 1e-7 if item.frame in GLOBAL_FRAMES else 1.0 / FRAME_LOCAL_SCALE
-        wp.x_lat, wp.y_long = item.x * scale, item.y * scale
+        factor = encode_factor(item.frame)
+        wp.x_lat, wp.y_long = item.x / factor, item.y / factor
     else:
         wp.x_lat, wp.y_long = item.x, item.y
     wp.z_alt = item.z
@@ -190,15 +200,38 @@ class Mission:
     def _item(self, seq, wp, as_int):
         b = self.bridge
         target = (b.target_system, b.target_component)
+        floats = {name: self._float32(seq, name, getattr(wp, name))
+                  for name in ('param1', 'param2', 'param3', 'param4', 'z_alt')}
+        params = [floats[name] for name in ('param1', 'param2', 'param3', 'param4')]
         if as_int:
-            scale = 1e7 if wp.frame in GLOBAL_FRAMES else FRAME_LOCAL_SCALE
+            factor = encode_factor(wp.frame)
+            x, y = (self._int32(seq, name, getattr(wp, name), factor) for name in ('x_lat', 'y_long'))
             return b.mav.mission_item_int_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
-                                                 int(wp.autocontinue), wp.param1, wp.param2, wp.param3, wp.param4,
-                                                 int(round(wp.x_lat * scale)), int(round(wp.y_long * scale)),
-                                                 wp.z_alt, mavlink.MAV_MISSION_TYPE_MISSION)
+                                                 int(wp.autocontinue), *params, x, y, floats['z_alt'],
+                                                 mavlink.MAV_MISSION_TYPE_MISSION)
+        x, y = (self._float32(seq, name, getattr(wp, name)) for name in ('x_lat', 'y_long'))
         return b.mav.mission_item_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
-                                         int(wp.autocontinue), wp.param1, wp.param2, wp.param3, wp.param4,
-                                         wp.x_lat, wp.y_long, wp.z_alt, mavlink.MAV_MISSION_TYPE_MISSION)
+                                         int(wp.autocontinue), *params, x, y, floats['z_alt'],
+                                         mavlink.MAV_MISSION_TYPE_MISSION)
+
+    @staticmethod
+    def _int32(seq, field, value, factor):
+        """x/y of MISSION_ITEM_INT as mavros's int32_t(value * factor): truncated toward zero; NaN or out
+        of range is x86's INT32_MIN, sent with a warning naming the field."""
+        sent = c_casts.int32_from_double(value * factor)
+        if sent == c_casts.INT32_MIN and value * factor != c_casts.INT32_MIN:
+            rospy.logwarn('WP: item %d: %s %r does not fit MISSION_ITEM_INT (* %g): sent as %d, as mavros '
+                          'casts it', seq, field, value, factor, sent)
+        return sent
+
+    @staticmethod
+    def _float32(seq, field, value):
+        """A float field as mavros's double -> float: infinity beyond the largest float, with a warning."""
+        sent = c_casts.float32_from_double(value)
+        if math.isinf(sent) and math.isfinite(value):
+            rospy.logwarn('WP: item %d: %s %r is beyond a float: sent as %r, as mavros casts it', seq, field, value,
+                          sent)
+        return sent
 
     def _do_push(self, waypoints):
         b = self.bridge

@@ -23,6 +23,7 @@ from mavros_msgs.srv import (ParamGet, ParamGetResponse, ParamPull, ParamPullRes
                              ParamSet, ParamSetRequest, ParamSetResponse)
 
 from offboard_py import param_codec
+from offboard_py.bridge import c_casts
 
 PULL_AFTER_CONNECT_S = 10.0       # mavros waits for the FCU to boot before pulling
 LIST_TIMEOUT_S = 30.0
@@ -168,7 +169,7 @@ class Param:
         if not math.isfinite(wanted):
             rospy.logerr('PR: %s: value %r is not a finite number', req.param_id, wanted)
             return ParamSetResponse(success=False, value=self._value_msg(*entry))
-        wanted = int(wanted) if param_codec.is_integer(param_type) else float(wanted)
+        wanted = self._as_sent(req.param_id, param_type, wanted, 'value.integer' if req.value.integer else 'value.real')
         wire = param_codec.encode(param_type, wanted)
         for _ in range(SET_RETRIES):
             with self.lock:
@@ -186,6 +187,24 @@ class Param:
                     self.lock.wait(0.05)
         rospy.logerr('PR: %s: no PARAM_VALUE echo after %d tries', req.param_id, SET_RETRIES)
         return ParamSetResponse(success=False, value=self._value_msg(*entry))
+
+    @staticmethod
+    def _as_sent(param_id, param_type, value, field):
+        """The value mavros's casts put on the wire: an integer's low 32 bits (static_cast<int>), a
+        real into an integer parameter as int32_t(double), into a float one as a float (inf
+        beyond); logged when that is not the value asked for."""
+        if isinstance(value, int):
+            sent = c_casts.int32_from_int(value)
+            sent = sent if param_codec.is_integer(param_type) else float(sent)
+        elif param_codec.is_integer(param_type):
+            sent = c_casts.int32_from_double(value)
+        else:
+            sent = c_casts.float32_from_double(value)
+        float_rounding = isinstance(value, float) and not param_codec.is_integer(param_type) and math.isfinite(sent)
+        if sent != value and not float_rounding:
+            rospy.logwarn('PR: %s: %s %r does not fit the parameter: sent as %r, as mavros casts it',
+                          param_id, field, value, sent)
+        return sent
 
     def _push(self, _req):
         """mavros's param/push: each ROS parameter under ~param (NAME: number) set on the FCU
