@@ -51,8 +51,8 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~rc/out', '~sys_status', '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics', '/tf',
         '/tf_static'}
     assert {name for name, pub in topics.items() if pub.latch} == {
-        '~state', '~home_position/home', '~mission/waypoints', '~geofence/waypoints', '~rallypoint/waypoints',
-        '/tf_static'}
+        '~state', '~home_position/home', '~mission/waypoints', '~mission/reached', '~geofence/waypoints',
+        '~rallypoint/waypoints', '/tf_static'}
     assert {name: pub.queue_size for name, pub in topics.items() if pub.queue_size != 10} == {
         '~home_position/home': 2, '~mission/waypoints': 2, '~geofence/waypoints': 2, '~rallypoint/waypoints': 2,
         'mavlink/from': 100, '/tf': 100, '/tf_static': 1}

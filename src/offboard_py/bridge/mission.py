@@ -2,7 +2,7 @@
 
 Transfers use the MAVLink mission protocol with MISSION_ITEM_INT (answering a legacy
 MISSION_REQUEST with MISSION_ITEM), one at a time, each step retried on timeout.
-~mission/waypoints is latched and republished after every transfer (also when empty)
+~mission/reached is latched, as mavros's is. ~mission/waypoints is latched and republished after every transfer (also when empty)
 and when MISSION_CURRENT moves. 15 s after the connection the geofence, the rally points and
 the mission are pulled, in that order, as mavros 1.21's geofence, rallypoint and waypoint plugins
 do (px4_pluginlists.yaml loads all three; each pulls its list BOOTUP_TIME after the connection:
@@ -82,7 +82,8 @@ class Mission:
         self.other_pubs = {mission_type: bridge.publisher('~%s/waypoints' % topic, WaypointList, queue_size=2, latch=True)
                            for mission_type, topic in ((mavlink.MAV_MISSION_TYPE_FENCE, 'geofence'),
                                                        (mavlink.MAV_MISSION_TYPE_RALLY, 'rallypoint'))}
-        self.reached_pub = bridge.publisher('~mission/reached', WaypointReached)
+        # latched, as mavros's waypoint plugin advertises it: a late subscriber hears the last item reached
+        self.reached_pub = bridge.publisher('~mission/reached', WaypointReached, latch=True)
         self.services = [bridge.service('~mission/push', WaypointPush, self._push),
                          bridge.service('~mission/pull', WaypointPull, self._pull),
                          bridge.service('~mission/clear', WaypointClear, self._clear),
