@@ -210,7 +210,8 @@ class BridgeTest(OffboardTestCase):
         self.assertAlmostEqual(got[0].thrust, 0.6, places=5)
         w, x, y, z = got[0].q
         self.assertAlmostEqual(math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)), math.pi / 2, places=4)
-        # setpoint_attitude/attitude paired with setpoint_attitude/thrust
+        # setpoint_attitude/cmd_vel (px4_config.yaml's use_quaternion false) paired with setpoint_attitude/thrust:
+        # body rates through mavros's ENU <-> NED swap, the attitude ignored
         thrust_pub = rospy.Publisher(ns + 'setpoint_attitude/thrust', Thrust, queue_size=10)
         try:
             self.wait_until(lambda: thrust_pub.get_num_connections() > 0, 5.0, 'the bridge subscribing to thrust')
@@ -218,14 +219,19 @@ class BridgeTest(OffboardTestCase):
             thrust.header.stamp = rospy.Time.now()
             thrust_pub.publish(thrust)
             time.sleep(0.2)
-            pose = PoseStamped()
-            pose.header.stamp = rospy.Time.now()
-            pose.pose.orientation.w = 1.0
-            got = self.sent_to_fcu(ns + 'setpoint_attitude/attitude', PoseStamped, [pose], 'SET_ATTITUDE_TARGET')
+            cmd = TwistStamped()
+            cmd.header.stamp = rospy.Time.now()
+            cmd.twist.angular.x, cmd.twist.angular.y, cmd.twist.angular.z = 0.1, 0.2, 0.3
+            got = self.sent_to_fcu(ns + 'setpoint_attitude/cmd_vel', TwistStamped, [cmd], 'SET_ATTITUDE_TARGET')
         finally:
             thrust_pub.unregister()
         self.assertEqual(len(got), 1)
         self.assertAlmostEqual(got[0].thrust, 0.4, places=5)
+        self.assertEqual(got[0].type_mask, AttitudeTarget.IGNORE_ATTITUDE)
+        rates = (got[0].body_roll_rate, got[0].body_pitch_rate, got[0].body_yaw_rate)
+        for value, expected in zip(rates, (0.2, 0.1, -0.3)):
+            self.assertAlmostEqual(value, expected, places=5, msg='body rates %s, mavros sends (0.2, 0.1, -0.3)'
+                                   % (rates,))
         # setpoint_raw/global: position only, AMSL altitude as given
         target = GlobalPositionTarget(coordinate_frame=GlobalPositionTarget.FRAME_GLOBAL_INT,
                                       type_mask=0xFF8, latitude=47.3978, longitude=8.5456, altitude=510.0)

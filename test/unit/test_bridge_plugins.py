@@ -35,7 +35,7 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
     assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local',
                                           '~setpoint_velocity/cmd_vel', '~setpoint_velocity/cmd_vel_unstamped',
                                           '~setpoint_raw/attitude', '~setpoint_raw/global',
-                                          '~setpoint_attitude/attitude', '~setpoint_attitude/thrust',
+                                          '~setpoint_attitude/cmd_vel', '~setpoint_attitude/thrust',
                                           '~statustext/send', 'mavlink/to'}
     topics = rig.ros.topics
     assert set(topics) == {
@@ -1220,7 +1220,7 @@ def test_attitude_setpoints_go_out_in_ned_and_targets_come_back_enu():
     from geometry_msgs.msg import PoseStamped
     from mavros_msgs.msg import AttitudeTarget, Thrust
     from offboard_py.bridge import setpoint_attitude
-    rig = Rig(setpoint.Setpoint, setpoint_attitude.SetpointAttitude)
+    rig = Rig(setpoint.Setpoint, setpoint_attitude.SetpointAttitude, setpoint_attitude__use_quaternion=True)
     north = (0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5))  # ENU yaw +90 deg: facing north
     raw = AttitudeTarget(type_mask=AttitudeTarget.IGNORE_ROLL_RATE | AttitudeTarget.IGNORE_PITCH_RATE |
                          AttitudeTarget.IGNORE_YAW_RATE, thrust=0.6)
@@ -1244,6 +1244,34 @@ def test_attitude_setpoints_go_out_in_ned_and_targets_come_back_enu():
     o = target.orientation
     assert same_rotation((o.x, o.y, o.z, o.w), north)
     assert (target.body_rate.x, target.body_rate.y, target.body_rate.z) == pytest.approx((0.1, -0.2, -0.3))
+
+
+def test_setpoint_attitude_is_cmd_vel_with_thrust_as_px4_config_sets_it():
+    """px4_config.yaml's use_quaternion false: mavros takes setpoint_attitude/cmd_vel's angular velocity
+    as body rates, turned by its ENU <-> NED swap (y, x, -z), the attitude ignored and identity; thrust
+    outside 0..1 is not sent (-1..1 with reverse_thrust)."""
+    from geometry_msgs.msg import TwistStamped
+    from mavros_msgs.msg import AttitudeTarget, Thrust
+    from offboard_py.bridge import setpoint_attitude
+    rig = Rig(setpoint.Setpoint, setpoint_attitude.SetpointAttitude)
+    assert '~setpoint_attitude/attitude' not in rig.ros.subscriptions
+    cmd = TwistStamped()
+    cmd.header.stamp = rospy.Time(5)
+    cmd.twist.angular.x, cmd.twist.angular.y, cmd.twist.angular.z = 0.1, 0.2, 0.3
+    for value in (0.6, 1.2, -0.5):
+        thrust = Thrust(thrust=value)
+        thrust.header.stamp = rospy.Time(5)
+        rig.ros.subscriptions['~setpoint_attitude/thrust'](thrust)
+        rig.ros.subscriptions['~setpoint_attitude/cmd_vel'](cmd)
+    [sent] = rig.fcu.got('SET_ATTITUDE_TARGET')
+    assert sent.type_mask == AttitudeTarget.IGNORE_ATTITUDE and list(sent.q) == [1.0, 0.0, 0.0, 0.0]
+    assert (sent.body_roll_rate, sent.body_pitch_rate, sent.body_yaw_rate, sent.thrust) == pytest.approx(
+        (0.2, 0.1, -0.3, 0.6))
+    assert rig.plugin.rejected == 2, 'thrust 1.2 and -0.5 refused'
+    reverse = Rig(setpoint.Setpoint, setpoint_attitude.SetpointAttitude, setpoint_attitude__reverse_thrust=True)
+    reverse.ros.subscriptions['~setpoint_attitude/thrust'](thrust)
+    reverse.ros.subscriptions['~setpoint_attitude/cmd_vel'](cmd)
+    assert [m.thrust for m in reverse.fcu.got('SET_ATTITUDE_TARGET')] == pytest.approx([-0.5])
 
 
 def test_raw_attitude_clamps_thrust_and_sends_a_zero_quaternion_as_it_is():

@@ -62,7 +62,8 @@ def read_config(get):
     cfg['sys/min_voltage'] = (float(_number('sys/min_voltage', min_voltage[0], 0.0, 1000.0))
                               if isinstance(min_voltage, list) and min_voltage else 10.0)
     for name, default in (('local_position/tf/send', False), ('global_position/use_relative_alt', True),
-                          ('sys/disable_diag', False)):
+                          ('sys/disable_diag', False), ('setpoint_attitude/use_quaternion', False),
+                          ('setpoint_attitude/reverse_thrust', False)):
         value = get(name, default)
         if not isinstance(value, bool):
             raise ConfigError('parameter ~%s: expected true or false, got %r' % (name, value))

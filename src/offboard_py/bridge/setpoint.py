@@ -140,10 +140,17 @@ class Setpoint:
             return
         q_ned = frames.orientation_enu_to_ned(q if _finite(*q) else (0.0, 0.0, 0.0, 0.0))
         rates = frames.flu_to_frd(*(r if math.isfinite(r) else 0.0 for r in rates))
+        self.send_attitude_target_ned(topic, stamp, type_mask, q_ned, rates, thrust if math.isfinite(thrust) else 0.0)
+
+    def send_attitude_target_ned(self, topic, stamp, type_mask, q_ned, rates, thrust):
+        """SET_ATTITUDE_TARGET of an orientation (x, y, z, w) and body rates already in the FCU's frames."""
+        if not _finite(*rates, thrust):
+            self.reject(topic, 'a NaN or infinite value')
+            return
         b = self.bridge
         b.send(b.mav.set_attitude_target_encode(
             _time_boot_ms(stamp), b.target_system, b.target_component, type_mask,
-            [q_ned[3], q_ned[0], q_ned[1], q_ned[2]], *rates, thrust if math.isfinite(thrust) else 0.0))
+            [q_ned[3], q_ned[0], q_ned[1], q_ned[2]], *rates, thrust))
 
     def _on_raw_attitude(self, msg):
         q, w = msg.orientation, msg.body_rate
