@@ -5,8 +5,9 @@ Python3, wire protocol 2.0) made from src/offboard_py/dialects/px4_development.x
 `development` dialect (`common` plus CURRENT_MODE and friends) plus what PX4's mavlink submodule
 defines, PX4 uses and pymavlink 2.4.49 lacks: the messages LINK_NODE_STATUS (8),
 TIME_ESTIMATE_TO_TARGET (380), PROTOCOL_VERSION (300) and PARAM_ERROR (345, with MAV_PARAM_ERROR),
-MAV_CMD_INJECT_FAILURE and its FAILURE_UNIT and FAILURE_TYPE enums. It is a module of its own: pymavlink's modules stay as they
-are, so a plain pymavlink client in the same process still sees UNKNOWN_8, as it would from PX4.
+MAV_CMD_INJECT_FAILURE and its FAILURE_UNIT and FAILURE_TYPE enums, MAV_RESULT_UNSUPPORTED_MAV_FRAME.
+It is a module of its own: pymavlink's modules stay as they are, so a plain pymavlink client in the
+same process still sees UNKNOWN_8, as it would from PX4.
 
 The generated module is committed, not generated at build time, so that every way of running
 the code (catkin devel or install space, a venv, the source tree) finds the same module without a

@@ -41,7 +41,10 @@ C_HEADERS = {
 }
 # common.xml (mavlink 51a47ee9aed1, PX4 main's submodule): the command and enums the XML adds
 ADDED_NAMES = {'MAV_CMD_INJECT_FAILURE': 420, 'FAILURE_UNIT_SENSOR_GYRO': 0, 'FAILURE_UNIT_SYSTEM_MAVLINK_SIGNAL': 105,
-               'FAILURE_TYPE_OK': 0, 'FAILURE_TYPE_OFF': 1, 'FAILURE_TYPE_INTERMITTENT': 7}
+               'FAILURE_TYPE_OK': 0, 'FAILURE_TYPE_OFF': 1, 'FAILURE_TYPE_INTERMITTENT': 7,
+               'MAV_RESULT_UNSUPPORTED_MAV_FRAME': 9}
+# an enum that gains a value ends one later (MAV_RESULT: UNSUPPORTED_MAV_FRAME, which PX4 answers)
+MOVED_ENDS = {'MAV_RESULT_ENUM_END': 10}
 MAV_PARAM_ERRORS = {'MAV_PARAM_ERROR_' + name: value for value, name in enumerate(
     ('NO_ERROR', 'DOES_NOT_EXIST', 'VALUE_OUT_OF_RANGE', 'PERMISSION_DENIED', 'COMPONENT_NOT_FOUND', 'READ_ONLY',
      'TYPE_UNSUPPORTED', 'TYPE_MISMATCH', 'READ_FAIL', 'ENUM_END'))}
@@ -93,13 +96,14 @@ def test_it_is_pymavlinks_development_plus_the_additions_only():
                           'instance_field', 'instance_offset'):
             assert getattr(ours, attribute) == getattr(theirs, attribute), (theirs.msgname, attribute)
         assert ours.unpacker.format == theirs.unpacker.format, theirs.msgname
-    names = {name for name in dir(pymavlink_development) if name.isupper() and name != 'DIALECT'}
+    names = {name for name in dir(pymavlink_development) if name.isupper() and name != 'DIALECT'} - set(MOVED_ENDS)
     assert {name: getattr(mavlink, name) for name in names} == {name: getattr(pymavlink_development, name)
                                                                   for name in names}
-    added = {name for name in dir(mavlink) if name.isupper()} - names - {'DIALECT'}
-    assert {name for name in added if not name.startswith(('FAILURE_', 'MAVLINK_MSG_ID_', 'MAV_PARAM_ERROR_'))} == \
-        {'MAV_CMD_INJECT_FAILURE'}
+    added = {name for name in dir(mavlink) if name.isupper()} - names - {'DIALECT'} - set(MOVED_ENDS)
+    assert {name for name in added if not name.startswith(('FAILURE_', 'MAVLINK_MSG_ID_', 'MAV_PARAM_ERROR_'))} == {
+        'MAV_CMD_INJECT_FAILURE', 'MAV_RESULT_UNSUPPORTED_MAV_FRAME'}
     assert {name: getattr(mavlink, name) for name in added if name.startswith('MAV_PARAM_ERROR_')} == MAV_PARAM_ERRORS
+    assert {name: getattr(mavlink, name) for name in MOVED_ENDS} == MOVED_ENDS
     assert {name: getattr(mavlink, name) for name in ADDED_NAMES} == ADDED_NAMES
     assert mavlink.WIRE_PROTOCOL_VERSION == '2.0'
 

@@ -1971,6 +1971,30 @@ enums["MAV_CMD"][43004].param[7] = """Empty"""
 MAV_CMD_ENUM_END = 43005
 enums["MAV_CMD"][43005] = EnumEntry("MAV_CMD_ENUM_END", """""")
 
+# MAV_RESULT
+enums["MAV_RESULT"] = Enum()
+enums["MAV_RESULT"].bitmask = False
+MAV_RESULT_ACCEPTED = 0
+enums["MAV_RESULT"][0] = EnumEntry("MAV_RESULT_ACCEPTED", """Command is valid (is supported and has valid parameters), and was executed.""")
+MAV_RESULT_TEMPORARILY_REJECTED = 1
+enums["MAV_RESULT"][1] = EnumEntry("MAV_RESULT_TEMPORARILY_REJECTED", """Command is valid, but cannot be executed at this time. This is used to indicate a problem that should be fixed just by waiting (e.g. a state machine is busy, can't arm because have not got GPS lock, etc.). Retrying later should work.""")
+MAV_RESULT_DENIED = 2
+enums["MAV_RESULT"][2] = EnumEntry("MAV_RESULT_DENIED", """Command is invalid (is supported but has invalid parameters). Retrying same command and parameters will not work.""")
+MAV_RESULT_UNSUPPORTED = 3
+enums["MAV_RESULT"][3] = EnumEntry("MAV_RESULT_UNSUPPORTED", """Command is not supported (unknown).""")
+MAV_RESULT_FAILED = 4
+enums["MAV_RESULT"][4] = EnumEntry("MAV_RESULT_FAILED", """Command is valid, but execution has failed. This is used to indicate any non-temporary or unexpected problem, i.e. any problem that must be fixed before the command can succeed/be retried. For example, attempting to write a file when out of memory, attempting to arm when sensors are not calibrated, etc.""")
+MAV_RESULT_IN_PROGRESS = 5
+enums["MAV_RESULT"][5] = EnumEntry("MAV_RESULT_IN_PROGRESS", """Command is valid and is being executed. This will be followed by further progress updates, i.e. the component may send further COMMAND_ACK messages with result MAV_RESULT_IN_PROGRESS (at a rate decided by the implementation), and must terminate by sending a COMMAND_ACK message with final result of the operation. The COMMAND_ACK.progress field can be used to indicate the progress of the operation. There is no need for the sender to retry the command, but if done during execution, the component will return MAV_RESULT_IN_PROGRESS with an updated progress.""")
+MAV_RESULT_COMMAND_LONG_ONLY = 7
+enums["MAV_RESULT"][7] = EnumEntry("MAV_RESULT_COMMAND_LONG_ONLY", """Command is only accepted when sent as a COMMAND_LONG.""")
+MAV_RESULT_COMMAND_INT_ONLY = 8
+enums["MAV_RESULT"][8] = EnumEntry("MAV_RESULT_COMMAND_INT_ONLY", """Command is only accepted when sent as a COMMAND_INT.""")
+MAV_RESULT_UNSUPPORTED_MAV_FRAME = 9
+enums["MAV_RESULT"][9] = EnumEntry("MAV_RESULT_UNSUPPORTED_MAV_FRAME", """The command's frame is not supported (PX4 takes COMMAND_INT in MAV_FRAME_GLOBAL_INT only).""")
+MAV_RESULT_ENUM_END = 10
+enums["MAV_RESULT"][10] = EnumEntry("MAV_RESULT_ENUM_END", """""")
+
 # FAILURE_UNIT
 enums["FAILURE_UNIT"] = Enum()
 enums["FAILURE_UNIT"].bitmask = False
@@ -2941,28 +2965,6 @@ MAV_PARAM_EXT_TYPE_CUSTOM = 11
 enums["MAV_PARAM_EXT_TYPE"][11] = EnumEntry("MAV_PARAM_EXT_TYPE_CUSTOM", """Custom Type""")
 MAV_PARAM_EXT_TYPE_ENUM_END = 12
 enums["MAV_PARAM_EXT_TYPE"][12] = EnumEntry("MAV_PARAM_EXT_TYPE_ENUM_END", """""")
-
-# MAV_RESULT
-enums["MAV_RESULT"] = Enum()
-enums["MAV_RESULT"].bitmask = False
-MAV_RESULT_ACCEPTED = 0
-enums["MAV_RESULT"][0] = EnumEntry("MAV_RESULT_ACCEPTED", """Command is valid (is supported and has valid parameters), and was executed.""")
-MAV_RESULT_TEMPORARILY_REJECTED = 1
-enums["MAV_RESULT"][1] = EnumEntry("MAV_RESULT_TEMPORARILY_REJECTED", """Command is valid, but cannot be executed at this time. This is used to indicate a problem that should be fixed just by waiting (e.g. a state machine is busy, can't arm because have not got GPS lock, etc.). Retrying later should work.""")
-MAV_RESULT_DENIED = 2
-enums["MAV_RESULT"][2] = EnumEntry("MAV_RESULT_DENIED", """Command is invalid (is supported but has invalid parameters). Retrying same command and parameters will not work.""")
-MAV_RESULT_UNSUPPORTED = 3
-enums["MAV_RESULT"][3] = EnumEntry("MAV_RESULT_UNSUPPORTED", """Command is not supported (unknown).""")
-MAV_RESULT_FAILED = 4
-enums["MAV_RESULT"][4] = EnumEntry("MAV_RESULT_FAILED", """Command is valid, but execution has failed. This is used to indicate any non-temporary or unexpected problem, i.e. any problem that must be fixed before the command can succeed/be retried. For example, attempting to write a file when out of memory, attempting to arm when sensors are not calibrated, etc.""")
-MAV_RESULT_IN_PROGRESS = 5
-enums["MAV_RESULT"][5] = EnumEntry("MAV_RESULT_IN_PROGRESS", """Command is valid and is being executed. This will be followed by further progress updates, i.e. the component may send further COMMAND_ACK messages with result MAV_RESULT_IN_PROGRESS (at a rate decided by the implementation), and must terminate by sending a COMMAND_ACK message with final result of the operation. The COMMAND_ACK.progress field can be used to indicate the progress of the operation. There is no need for the sender to retry the command, but if done during execution, the component will return MAV_RESULT_IN_PROGRESS with an updated progress.""")
-MAV_RESULT_COMMAND_LONG_ONLY = 7
-enums["MAV_RESULT"][7] = EnumEntry("MAV_RESULT_COMMAND_LONG_ONLY", """Command is only accepted when sent as a COMMAND_LONG.""")
-MAV_RESULT_COMMAND_INT_ONLY = 8
-enums["MAV_RESULT"][8] = EnumEntry("MAV_RESULT_COMMAND_INT_ONLY", """Command is only accepted when sent as a COMMAND_INT.""")
-MAV_RESULT_ENUM_END = 9
-enums["MAV_RESULT"][9] = EnumEntry("MAV_RESULT_ENUM_END", """""")
 
 # MAV_MISSION_RESULT
 enums["MAV_MISSION_RESULT"] = Enum()
