@@ -404,20 +404,24 @@ class SimulatedPx4:
                                            d.type, len(self.params), self.params.index(name))
 
     def _hash_check(self):
-        """The list's closing PARAM_VALUE, as PX4 sends it: _HASH_CHECK, UINT32, index 65535, not
-        counted in param_count (reference/px4-sitl-measured.md, "Turn 3 recordings", section 1)."""
+        """The list's first PARAM_VALUE, as PX4 sends it: _HASH_CHECK, UINT32, index 65535, not
+        counted in param_count (reference/conversations/takeoff-mavros-px4: _HASH_CHECK at t=11.017,
+        seq 221, then index 0), so that a ground station with the list cached can stop at once."""
         return self.mav.param_value_encode(
             sim_params.HASH_CHECK_NAME.encode('ascii'),
             struct.unpack('<f', struct.pack('<I', sim_params.HASH_CHECK_VALUE))[0],  # bytewise, as PX4
             mavlink.MAV_PARAM_TYPE_UINT32, len(self.params), sim_params.HASH_CHECK_INDEX)
 
     def _on_param_request_list(self, msg):
-        """The whole table on the requesting link, then _HASH_CHECK, as PX4, paced by the loop
+        """_HASH_CHECK, then the whole table on the requesting link, as PX4, paced by the loop
         (PARAM_LIST_BATCH a step): all at once they overflow a client's socket buffer (a pymavlink
         client on loopback got 785 of 887). 889 take about 0.81 s, as PX4 SITL's 0.80 s. A new
-        request for the same link starts the list again, as PX4 does."""
+        request while a list is under way on that link starts the table again from index 0 without
+        a second _HASH_CHECK, as PX4's MavlinkParametersManager does."""
         if self._for_me(msg):
-            self.param_lists[self.reply_link] = collections.deque(self.params.names + [sim_params.HASH_CHECK_NAME])
+            restart = self.reply_link in self.param_lists
+            self.param_lists[self.reply_link] = collections.deque(
+                ([] if restart else [sim_params.HASH_CHECK_NAME]) + self.params.names)
 
     def _send_param_lists(self, out=None):
         """A cycle's batch of each parameter list under way: into out[link] with the cycle's streams

@@ -7,7 +7,8 @@ for a PARAM_REQUEST_LIST, in index order, which is the names' byte order (ASPD_S
 a copy of reference/px4-sitl-params-indexed.tsv (reference/px4-sitl-measured.md, "Turn 3
 recordings", section 1). EKF2_MAG_DECL comes from PX4's world magnetic model and read 3.4056 and
 3.40561 in two runs; the table keeps the second.
-PX4 ends a full list with _HASH_CHECK (UINT32, index 65535, not counted in param_count): PX4's
+PX4 starts a full list with _HASH_CHECK (UINT32, index 65535, not counted in param_count; reference/
+conversations/takeoff-mavros-px4, t=11.017, seq 221, before index 0): PX4's
 CRC32 over the names and values; this simulator sends the value recorded with PX4's defaults
 (HASH_CHECK_VALUE), whatever was changed since.
 
@@ -31,7 +32,7 @@ Param = namedtuple('Param', 'name type default minimum maximum')  # minimum, max
 TABLE_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'px4_params.tsv')
 TYPES = {'INT32': mavlink.MAV_PARAM_TYPE_INT32, 'REAL32': mavlink.MAV_PARAM_TYPE_REAL32}
 INT32_MIN, INT32_MAX = -2 ** 31, 2 ** 31 - 1
-# The list's last PARAM_VALUE (reference/px4-sitl-measured.md, section 1): name, index, value
+# The list's first PARAM_VALUE (reference/conversations/takeoff-mavros-px4, t=11.017): name, index, value
 HASH_CHECK_NAME, HASH_CHECK_INDEX, HASH_CHECK_VALUE = '_HASH_CHECK', 0xFFFF, 0xBD8B05F8
 
 # [minimum, maximum] of the parameters the simulator models (commander, navigator, vehicle), from
