@@ -10,7 +10,8 @@ table {MAV_CMD: handler}; what is addressed to another system is ignored. The fl
 real time: offboard_py.simtime); the streams due at each step are built for that step (each
 message once, whatever the number of links), and those of the `steps_per_wakeup` steps of one
 wake-up go out together (run()), each message in a datagram of its own as PX4 frames them; what
-the flight stack says (mode changes, texts, mission progress) goes out on both links at once.
+the flight stack says (mode changes, mission progress) goes out on both links at once, its texts
+(STATUSTEXT) only on a link where a ground station's HEARTBEAT was heard, as PX4.
 """
 
 import collections
@@ -44,9 +45,26 @@ ACK_DELAY_S = 0.004
 PARAM_LIST_BATCH = 11
 ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
+UNSUPPORTED_MAV_FRAME = mavlink.MAV_RESULT_UNSUPPORTED_MAV_FRAME
+# PX4's receiver's sentinels of a command sent in the wrong message: INT32_MAX in COMMAND_LONG's float
+# param5/param6 (the floats next to it on either side, as PX4 compares), NaN's float bits in COMMAND_INT's x/y
+INT32_MAX_AS_FLOAT = (struct.unpack('<f', struct.pack('<I', 0x4EFFFFFF))[0],
+                      struct.unpack('<f', struct.pack('<I', 0x4F000001))[0])
+NAN_AS_INT32 = 0x7FF80000
 # PX4's MavlinkCommandSender repeats a command it sent until acknowledged: recorded at +1.01, +1.53 and
 # +2.04 s after the first, with confirmation 1, 2, 3 (reference/conversations, COMMAND_LONG 1001 and 0)
 COMMAND_REPEATS_S = (1.01, 1.53, 2.04)
+# GPS_GLOBAL_ORIGIN went out once, 1.0 s after the link's first message, in both real-PX4 recordings
+# (reference/conversations/takeoff-mavros-px4 t=1.005, takeoff-bridge-px4 t=1.013: boot 1.44 and 1.33 s,
+# PX4's links starting 0.3-0.45 s after its boot); this simulator's links start at its boot
+ORIGIN_FIRST_SENT_S = 1.0
+# PX4's STATUSTEXT stream (streams/STATUSTEXT.hpp) sends on a link only while a MAV_TYPE_GCS HEARTBEAT was
+# heard on it within telemetry_status HEARTBEAT_TIMEOUT_US (2.5 s), one text each time it runs (20 Hz), from
+# the mavlink_log queue (8 deep: older texts are overwritten), dropping texts older than 5 s
+GCS_HEARTBEAT_TIMEOUT_S = 2.5
+STATUSTEXT_INTERVAL_S = 0.05
+STATUSTEXT_QUEUE = 8
+STATUSTEXT_STALE_S = 5.0
 # What REQUEST_MESSAGE's older, dedicated commands ask for
 REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
                         mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
@@ -102,6 +120,10 @@ class SimulatedPx4:
         for link, counters in self.link_counters.items():
             link.on_frames(counters.on_frame)  # LINK_NODE_STATUS.messages_lost, counted as PX4 counts it
         self.deferred = []  # (clock time due, link, message): answers that PX4 sends a few ms later
+        self.gcs_heard = {link: None for link in self.links}  # boot time of the link's last GCS HEARTBEAT
+        self.texts = {link: collections.deque(maxlen=STATUSTEXT_QUEUE) for link in self.links}  # (t, sev, text)
+        self.text_sent = {link: None for link in self.links}  # boot time of the link's last STATUSTEXT
+        self.origin_sent = False  # GPS_GLOBAL_ORIGIN's one message on every link (ORIGIN_FIRST_SENT_S)
         self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
@@ -173,6 +195,7 @@ class SimulatedPx4:
         control('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.transfer.on_clear_all(m)))
         control('MISSION_SET_CURRENT', self._mission(lambda m, t: self._set_current(m.seq)))
         on('COMMAND_ACK', self._on_command_ack)
+        on('HEARTBEAT', self._on_heartbeat)
         on('PARAM_REQUEST_LIST', self._on_param_request_list)
         on('PARAM_REQUEST_READ', self._on_param_request_read)
         on('MISSION_REQUEST_LIST', self._mission(lambda m, t: self.transfer.on_request_list(m)))
@@ -247,13 +270,25 @@ class SimulatedPx4:
             for link in self.links:
                 self.deferred.append((due, link, msg))
 
+    def _on_heartbeat(self, msg):
+        """A ground station's HEARTBEAT (MAV_TYPE_GCS, any system) lets STATUSTEXT out on its link, as
+        PX4's is_gcs_connected(); mavros's MAV_TYPE_ONBOARD_CONTROLLER does not."""
+        if msg.type == mavlink.MAV_TYPE_GCS:
+            self.gcs_heard[self.reply_link] = self.t()
+
+    def gcs_connected(self, link, now):
+        heard = self.gcs_heard[link]
+        return heard is not None and now - heard <= GCS_HEARTBEAT_TIMEOUT_S
+
     def _on_command_ack(self, msg):
         """An answer to a command we sent: PX4's command sender stops repeating it."""
         self.deferred = [d for d in self.deferred
                          if not (d[2].get_type() == 'COMMAND_LONG' and d[2].command == msg.command and d[2].confirmation)]
 
     def _on_set_mode(self, msg):
-        if msg.target_system != self.system_id:
+        """PX4's receiver turns SET_MODE into a DO_SET_MODE vehicle command for target_system, and the
+        commander takes a command for its own system or for all (0), as for COMMAND_LONG."""
+        if msg.target_system not in (0, self.system_id):
             self.counters['ignored_other_system'] += 1
             return
         main, sub = px4_modes.split(msg.custom_mode)
@@ -262,7 +297,27 @@ class SimulatedPx4:
         self._ack(msg, mavlink.MAV_CMD_DO_SET_MODE, result)
         self._say_events()
 
+    def _refused_before_dispatch(self, msg):
+        """What PX4's mavlink_receiver.cpp refuses before it looks at the target or the command: a
+        COMMAND_LONG with param5 and param6 both INT32_MAX (an integer sentinel sent as a float) and a
+        COMMAND_INT with x and y both 0x7ff80000 (a float NaN sent as an integer) are DENIED; a
+        COMMAND_INT in any frame but MAV_FRAME_GLOBAL_INT is UNSUPPORTED_MAV_FRAME. None: go on."""
+        if msg.get_type() == 'COMMAND_LONG':
+            if INT32_MAX_AS_FLOAT[0] <= msg.param5 <= INT32_MAX_AS_FLOAT[1] and \
+                    INT32_MAX_AS_FLOAT[0] <= msg.param6 <= INT32_MAX_AS_FLOAT[1]:
+                return DENIED
+            return None
+        if msg.x == NAN_AS_INT32 and msg.y == NAN_AS_INT32:
+            return DENIED
+        if msg.frame != mavlink.MAV_FRAME_GLOBAL_INT:
+            return UNSUPPORTED_MAV_FRAME
+        return None
+
     def _on_command(self, msg):
+        refused = self._refused_before_dispatch(msg)
+        if refused is not None:
+            self._ack(msg, msg.command, refused)
+            return
         if not self._for_me(msg):
             return
         if msg.command == mavlink.MAV_CMD_DO_SET_MODE:
@@ -520,8 +575,31 @@ class SimulatedPx4:
     # -- send ------------------------------------------------------------------------------
 
     def _text(self, severity, text):
+        """Into every link's queue: each sends it while a ground station is heard on it (_send_texts)."""
         log.info('%s', text)
-        self._broadcast(self.telemetry.statustext(severity, text))
+        now = self.t()
+        for queue in self.texts.values():
+            queue.append((now, severity, text))
+
+    def _send_texts(self, now, out=None):
+        """A link's next fresh text, at most one every STATUSTEXT_INTERVAL_S, while a GCS is heard on it;
+        what waits while none is stays queued (STATUSTEXT_QUEUE) and is dropped once STATUSTEXT_STALE_S old."""
+        for link, queue in self.texts.items():
+            if not queue or not self.gcs_connected(link, now):
+                continue
+            last = self.text_sent[link]
+            if last is not None and now - last < STATUSTEXT_INTERVAL_S:
+                continue
+            while queue:
+                said, severity, text = queue.popleft()
+                if now - said < STATUSTEXT_STALE_S:
+                    msg = self.telemetry.statustext(severity, text)
+                    if out is None:
+                        link.send(msg)
+                    else:
+                        out.setdefault(link, []).append(msg)
+                    self.text_sent[link] = now
+                    break
 
     def _say_events(self):
         """What the flight stack said, on the link."""
@@ -561,6 +639,15 @@ class SimulatedPx4:
         self._say_events()
         if self.param_lists:
             self._send_param_lists(out)
+        self._send_texts(now, out)
+        if not self.origin_sent and now >= ORIGIN_FIRST_SENT_S:
+            self.origin_sent = True
+            origin = self.telemetry.build('GPS_GLOBAL_ORIGIN', None, now)
+            for link in self.links:
+                if out is None:
+                    link.send(origin)
+                else:
+                    out.setdefault(link, []).append(origin)
         status, built = None, {}
         for link, streams in self.streams.items():
             due = streams.due(now)

@@ -1,0 +1,200 @@
+"""What the simulated PX4 answers and sends on its own, held to PX4 main 02e73e3b6f and its recordings,
+offline: the simulator on a clock that moves only when the test moves it, its onboard link sending to a
+UDP socket of the test's on loopback, requests handed to the link as datagrams (MavlinkLink.handle_datagram).
+
+- COMMAND_INT and COMMAND_LONG sentinels and frames as mavlink_receiver.cpp refuses them;
+- SET_MODE for all systems (target 0), as the commander takes a command for system 0;
+- GPS_GLOBAL_ORIGIN once, 1.0 s after the links start (reference/conversations/takeoff-*-px4), and on request;
+- STATUSTEXT only while a MAV_TYPE_GCS HEARTBEAT is heard on the link (PX4's STATUSTEXT stream).
+"""
+
+import socket
+
+import pytest
+
+from offboard_py.dialect import mavlink
+from offboard_py.sim import autopilot as ap_module
+from offboard_py.sim.autopilot import SimulatedPx4
+
+from manual_clock import ManualClock
+
+STEP_S = 0.01
+CLIENT = (255, mavlink.MAV_COMP_ID_MISSIONPLANNER)
+
+
+class Rig:
+    """The simulator, its clock and the test's end of the onboard link."""
+
+    def __init__(self):
+        self.clock = ManualClock(1000.0)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(('127.0.0.1', 0))
+        self.sock.setblocking(False)
+        self.ap = SimulatedPx4(local_port=0, remote_port=self.sock.getsockname()[1], gcs=False,
+                               ready_delay_s=0.0, clock=self.clock)
+        self.codec = mavlink.MAVLink(None, srcSystem=CLIENT[0], srcComponent=CLIENT[1])
+        self.reader = mavlink.MAVLink(None)
+        self.got = []  # (boot s, message) in arrival order
+
+    def send(self, msg):
+        self.ap.link.handle_datagram(bytes(msg.pack(self.codec)), self.sock.getsockname())
+
+    def run(self, seconds):
+        """Step the simulator for `seconds` of its clock, reading what it sent after each step."""
+        for _ in range(int(round(seconds / STEP_S))):
+            self.clock.now_s += STEP_S
+            self.ap.step(STEP_S)
+            self.read()
+
+    def read(self):
+        while True:
+            try:
+                data = self.sock.recv(65536)
+            except BlockingIOError:
+                return
+            for msg in self.reader.parse_buffer(data) or []:
+                self.got.append((self.ap.t(), msg))
+
+    def of(self, kind, since=0):
+        return [m for _, m in self.got[since:] if m.get_type() == kind]
+
+    def acks(self, command, since=0):
+        return [m.result for m in self.of('COMMAND_ACK', since) if m.command == command]
+
+    def close(self):
+        self.ap.close_links()
+        self.sock.close()
+
+
+@pytest.fixture
+def rig():
+    r = Rig()
+    yield r
+    r.close()
+
+
+def command_int(rig, command, frame, x=0, y=0, z=0.0, target=None, params=(0.0, 0.0, 0.0, 0.0)):
+    target = rig.ap.system_id if target is None else target
+    return rig.codec.command_int_encode(target, 1, frame, command, 0, 0, *params, x, y, z)
+
+
+def test_command_int_in_any_frame_but_global_int_is_unsupported_mav_frame(rig):
+    """mavlink_receiver.cpp handle_message_command_int: "PX4 only supports global frame" - not even
+    GLOBAL_RELATIVE_ALT_INT; checked before the target, so a command for another system gets it too."""
+    for frame in (mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL):
+        start = len(rig.got)
+        rig.send(command_int(rig, mavlink.MAV_CMD_REQUEST_MESSAGE, frame, params=(
+            mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0.0, 0.0, 0.0)))
+        rig.run(0.02)
+        assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [mavlink.MAV_RESULT_UNSUPPORTED_MAV_FRAME], frame
+        assert not rig.of('AUTOPILOT_VERSION', start), 'nothing is sent for a refused frame'
+    start = len(rig.got)
+    rig.send(command_int(rig, mavlink.MAV_CMD_NAV_LAND, mavlink.MAV_FRAME_LOCAL_NED, target=99))
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_NAV_LAND, start) == [mavlink.MAV_RESULT_UNSUPPORTED_MAV_FRAME]
+    start = len(rig.got)
+    rig.send(command_int(rig, mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_FRAME_GLOBAL_INT, params=(
+        mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0.0, 0.0, 0.0)))
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [mavlink.MAV_RESULT_ACCEPTED]
+    assert len(rig.of('AUTOPILOT_VERSION', start)) == 1
+
+
+def test_nan_sent_as_int_in_command_int_and_int32_max_as_float_in_command_long_are_denied(rig):
+    """x and y both 0x7ff80000 (NaN's float bits) in COMMAND_INT, param5 and param6 both INT32_MAX in
+    COMMAND_LONG: PX4 answers DENIED whatever the command, before it looks at the frame or target."""
+    start = len(rig.got)
+    rig.send(command_int(rig, mavlink.MAV_CMD_NAV_LAND, mavlink.MAV_FRAME_LOCAL_NED, x=0x7FF80000, y=0x7FF80000))
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_NAV_LAND, start) == [mavlink.MAV_RESULT_DENIED]
+    start = len(rig.got)
+    rig.send(rig.codec.command_long_encode(rig.ap.system_id, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                           mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0,
+                                           2147483647.0, 2147483647.0, 0))
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [mavlink.MAV_RESULT_DENIED]
+    assert not rig.of('AUTOPILOT_VERSION', start)
+    start = len(rig.got)  # one of the two alone is a value, not the sentinel
+    rig.send(rig.codec.command_long_encode(rig.ap.system_id, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                           mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 2147483647.0, 0, 0))
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [mavlink.MAV_RESULT_ACCEPTED]
+
+
+def test_set_mode_for_all_systems_is_taken_and_for_another_ignored(rig):
+    """The receiver makes SET_MODE a DO_SET_MODE vehicle command for its target_system; the commander
+    takes target 0 (all) as its own and ignores another system's."""
+    hold = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    start = len(rig.got)
+    rig.send(rig.codec.set_mode_encode(0, hold, (3 << 24) | (4 << 16)))  # AUTO.LOITER
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_DO_SET_MODE, start) == [mavlink.MAV_RESULT_ACCEPTED]
+    start = len(rig.got)
+    rig.send(rig.codec.set_mode_encode(99, hold, (3 << 24) | (5 << 16)))
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_DO_SET_MODE, start) == [], 'SET_MODE for system 99 is not ours'
+
+
+def test_gps_global_origin_once_a_second_after_start_and_on_request(rig):
+    """Both real-PX4 recordings: one GPS_GLOBAL_ORIGIN about 1.0 s after the link's first message, the
+    estimator's origin, time_usec when it was set (0.636/0.644 s); none again through the flight.
+    REQUEST_MESSAGE 49 sends it with ACCEPTED (PX4's stream request_message), DENIED before there is one."""
+    start = len(rig.got)
+    rig.send(rig.codec.command_long_encode(rig.ap.system_id, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                           mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, 0, 0, 0, 0, 0, 0))
+    rig.run(0.02)
+    assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [mavlink.MAV_RESULT_DENIED], 'no origin at boot'
+    rig.run(3.0)
+    sent = [(t, m) for t, m in rig.got if m.get_type() == 'GPS_GLOBAL_ORIGIN']
+    assert len(sent) == 1, 'once: %s' % sent
+    t, origin = sent[0]
+    assert ap_module.ORIGIN_FIRST_SENT_S <= t <= ap_module.ORIGIN_FIRST_SENT_S + 0.05
+    lat, lon, alt = ap_module.DEFAULT_HOME
+    assert (origin.latitude, origin.longitude, origin.altitude, origin.time_usec) == (
+        round(lat * 1e7), round(lon * 1e7), round(alt * 1000), 640000)
+    start = len(rig.got)
+    rig.send(rig.codec.command_long_encode(rig.ap.system_id, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                           mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, 0, 0, 0, 0, 0, 0))
+    rig.run(0.02)
+    assert len(rig.of('GPS_GLOBAL_ORIGIN', start)) == 1
+    assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [mavlink.MAV_RESULT_ACCEPTED]
+
+
+def unknown_param(rig, name=b'NO_SUCH_PARAM'):
+    """PARAM_SET of a name PX4 does not have: the simulator says so in a text."""
+    rig.send(rig.codec.param_set_encode(rig.ap.system_id, 1, name, 1.0, mavlink.MAV_PARAM_TYPE_REAL32))
+
+
+def heartbeat(rig, mav_type):
+    rig.send(rig.codec.heartbeat_encode(mav_type, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE))
+
+
+def test_statustext_only_while_a_ground_station_is_heard_on_the_link(rig):
+    """PX4's STATUSTEXT stream sends while is_gcs_connected(): a MAV_TYPE_GCS HEARTBEAT within 2.5 s.
+    mavros's heartbeat (MAV_TYPE_ONBOARD_CONTROLLER) is not one, so mavros hears no texts."""
+    heartbeat(rig, mavlink.MAV_TYPE_ONBOARD_CONTROLLER)
+    unknown_param(rig)
+    rig.run(0.5)
+    assert rig.of('STATUSTEXT') == [], 'no STATUSTEXT to an onboard controller'
+    heartbeat(rig, mavlink.MAV_TYPE_GCS)
+    rig.run(0.1)
+    texts = [m.text for m in rig.of('STATUSTEXT')]
+    assert texts == ['Parameter NO_SUCH_PARAM unknown'], 'the queued text once a GCS is heard: %s' % texts
+    rig.run(3.0)  # no GCS HEARTBEAT for 3 s: disconnected
+    start = len(rig.got)
+    unknown_param(rig, b'SECOND')
+    rig.run(0.5)
+    assert rig.of('STATUSTEXT', start) == [], 'the ground station went quiet 2.5 s ago'
+
+
+def test_texts_older_than_5_s_are_dropped_and_several_go_out_20_a_second(rig):
+    unknown_param(rig, b'STALE')
+    rig.run(5.5)
+    for name in (b'A', b'B', b'C'):
+        unknown_param(rig, name)
+    heartbeat(rig, mavlink.MAV_TYPE_GCS)
+    rig.run(0.3)
+    sent = [(t, m.text) for t, m in rig.got if m.get_type() == 'STATUSTEXT']
+    assert [text for _, text in sent] == ['Parameter %s unknown' % n for n in 'ABC'], sent
+    gaps = [b[0] - a[0] for a, b in zip(sent, sent[1:])]
+    assert all(gap >= ap_module.STATUSTEXT_INTERVAL_S - 1e-9 for gap in gaps), gaps
