@@ -631,7 +631,7 @@ class SimulatedPx4:
         values are that time's, also when one wake-up runs several cycles. The streams and the
         cycle's batch of a parameter list are appended to out[link] to go out with the rest of the
         wake-up's cycles, or sent at once when `out` is None. What the flight stack says (modes,
-        texts, mission progress) goes out at once."""
+        mission progress) goes out at once; its texts with the cycle, where a ground station listens."""
         self._send_deferred()
         now = self.t() if slot_s is None else slot_s
         self.flight.step(now, dt)
