@@ -160,9 +160,13 @@ def test_gps_global_origin_once_a_second_after_start_and_on_request(rig):
     assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [mavlink.MAV_RESULT_ACCEPTED]
 
 
-def unknown_param(rig, name=b'NO_SUCH_PARAM'):
-    """PARAM_SET of a name PX4 does not have: the simulator says so in a text."""
-    rig.send(rig.codec.param_set_encode(rig.ap.system_id, 1, name, 1.0, mavlink.MAV_PARAM_TYPE_REAL32))
+def refused_param(rig, value=500.0):
+    """PARAM_SET of RTL_RETURN_ALT outside its range: the simulator refuses it and says so in a text."""
+    rig.send(rig.codec.param_set_encode(rig.ap.system_id, 1, b'RTL_RETURN_ALT', value, mavlink.MAV_PARAM_TYPE_REAL32))
+
+
+def refusal(value):
+    return 'RTL_RETURN_ALT=%r is outside [0, 150]' % value
 
 
 def heartbeat(rig, mav_type):
@@ -173,28 +177,28 @@ def test_statustext_only_while_a_ground_station_is_heard_on_the_link(rig):
     """PX4's STATUSTEXT stream sends while is_gcs_connected(): a MAV_TYPE_GCS HEARTBEAT within 2.5 s.
     mavros's heartbeat (MAV_TYPE_ONBOARD_CONTROLLER) is not one, so mavros hears no texts."""
     heartbeat(rig, mavlink.MAV_TYPE_ONBOARD_CONTROLLER)
-    unknown_param(rig)
+    refused_param(rig)
     rig.run(0.5)
     assert rig.of('STATUSTEXT') == [], 'no STATUSTEXT to an onboard controller'
     heartbeat(rig, mavlink.MAV_TYPE_GCS)
     rig.run(0.1)
     texts = [m.text for m in rig.of('STATUSTEXT')]
-    assert texts == ['Parameter NO_SUCH_PARAM unknown'], 'the queued text once a GCS is heard: %s' % texts
+    assert texts == [refusal(500.0)], 'the queued text once a GCS is heard: %s' % texts
     rig.run(3.0)  # no GCS HEARTBEAT for 3 s: disconnected
     start = len(rig.got)
-    unknown_param(rig, b'SECOND')
+    refused_param(rig, 501.0)
     rig.run(0.5)
     assert rig.of('STATUSTEXT', start) == [], 'the ground station went quiet 2.5 s ago'
 
 
 def test_texts_older_than_5_s_are_dropped_and_several_go_out_20_a_second(rig):
-    unknown_param(rig, b'STALE')
+    refused_param(rig, 499.0)
     rig.run(5.5)
-    for name in (b'A', b'B', b'C'):
-        unknown_param(rig, name)
+    for value in (500.0, 501.0, 502.0):
+        refused_param(rig, value)
     heartbeat(rig, mavlink.MAV_TYPE_GCS)
     rig.run(0.3)
     sent = [(t, m.text) for t, m in rig.got if m.get_type() == 'STATUSTEXT']
-    assert [text for _, text in sent] == ['Parameter %s unknown' % n for n in 'ABC'], sent
+    assert [text for _, text in sent] == [refusal(v) for v in (500.0, 501.0, 502.0)], sent
     gaps = [b[0] - a[0] for a, b in zip(sent, sent[1:])]
     assert all(gap >= ap_module.STATUSTEXT_INTERVAL_S - 1e-9 for gap in gaps), gaps
