@@ -43,6 +43,8 @@ def load_census(name):
 
 CENSUS = load_census('px4-sitl-census.json')
 GCS_CENSUS = load_census('px4-sitl-gcs-census.json')
+with open(os.path.join(REFERENCE, 'px4-sitl-autopilot-version.json')) as f:
+    AUTOPILOT_VERSION = json.load(f)
 FAST = ('--ready-delay', '1')
 WINDOW_S = 5.0
 GCS_WINDOW_S = 21.0  # two samples of a 0.1 Hz stream
@@ -216,6 +218,13 @@ def test_answers_as_px4_sitl(start_sim):
     assert version.flight_sw_version == int(want['flight_sw_version'], 16)
     assert (version.vendor_id, version.product_id) == (want['vendor_id'], want['product_id'])
     assert version.uid > 0xFFFFFFFF, 'a 64-bit uid'
+    # every other field as the full captures of the recorded conversations show it (the uid is this
+    # simulator's own per instance, so that several vehicles are told apart)
+    recorded = AUTOPILOT_VERSION['fields']
+    for field in ('capabilities', 'flight_sw_version', 'middleware_sw_version', 'os_sw_version', 'board_version',
+                  'flight_custom_version', 'middleware_custom_version', 'os_custom_version', 'vendor_id', 'product_id',
+                  'uid2'):
+        assert getattr(version, field) == recorded[field], (field, getattr(version, field), recorded[field])
 
     # PROTOCOL_VERSION (reference/px4-sitl-gcs-census.json answers; reference/px4-sitl-measured.md, section 4)
     # is covered with its hashes and its ACK's order and timing in test_px4_answers.py

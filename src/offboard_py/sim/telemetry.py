@@ -119,6 +119,12 @@ CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT | mavlink.MAV_PROT
                 | mavlink.MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
                 | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY)
 PX4_VERSION = 0xFF  # flight_sw_version of PX4 SITL's dev build: no release number, type byte 0xFF
+# AUTOPILOT_VERSION's other fields as the recorded build sent them (reference/px4-sitl-autopilot-version.json):
+# the middleware's version as the flight stack's, the host's OS version, board 1, and PX4's git hash
+# (02e73e3b6f, little-endian in the last five of eight bytes) as the flight and middleware custom version
+PX4_OS_SW_VERSION = 101854463
+PX4_BOARD_VERSION = 1
+PX4_CUSTOM_VERSION = [0, 0, 0, 0x6F, 0x3B, 0x3E, 0xE7, 0x02]
 MAVLINK_LIBRARY_HASH = bytes.fromhex('6521d1aee97ea451')  # PROTOCOL_VERSION.library_version_hash, wire order
 UID_BASE = int.from_bytes(b'PX4SITL\0', 'big')  # + system id: 64 bits, stable per instance
 # SYS_STATUS as PX4 SITL (SIH quadrotor) reports it: present 0x0300402F, enabled 0x0301402F,
@@ -610,7 +616,8 @@ class TelemetryBuilder:
                                                  int(round(self.frame.alt0 * 1000)), int(ORIGIN_SET_S * 1e6))
 
     def _autopilot_version(self, st, now_s):
-        return self.mav.autopilot_version_encode(CAPABILITIES, PX4_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8,
+        return self.mav.autopilot_version_encode(CAPABILITIES, PX4_VERSION, PX4_VERSION, PX4_OS_SW_VERSION,
+                                                 PX4_BOARD_VERSION, PX4_CUSTOM_VERSION, PX4_CUSTOM_VERSION, [0] * 8,
                                                  0, 0, self.uid)
 
     def _protocol_version(self, st, now_s):
