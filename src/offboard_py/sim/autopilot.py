@@ -111,7 +111,9 @@ class SimulatedPx4:
             self.links.append(self.gcs_link)
         self.reply_link = self.link  # the link of the request being handled: answers go back on it
         self.param_lists = {}  # link -> names of a PARAM_REQUEST_LIST answer still to send
-        self.transfer = missions.MissionTransfer(self.mav, self._reply, self._on_mission_changed)
+        self.transfer = missions.MissionTransfer(self.mav, self.system_id, lambda: self.reply_link,
+                                                 lambda text: self._text(mavlink.MAV_SEVERITY_CRITICAL, text),
+                                                 self._on_mission_changed)
         self.streams = {self.link: telemetry.Streams(self.t(now), telemetry.ONBOARD_RATES_HZ)}
         if self.gcs_link:
             self.streams[self.gcs_link] = telemetry.Streams(self.t(now), telemetry.GCS_RATES_HZ)
@@ -192,15 +194,16 @@ class SimulatedPx4:
         control('MISSION_COUNT', self._mission(lambda m, t: self.transfer.on_count(m, t)))
         control('MISSION_ITEM_INT', self._mission(lambda m, t: self.transfer.on_item(m, t)))
         control('MISSION_ITEM', self._mission(lambda m, t: self.transfer.on_item(m, t)))
-        control('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.transfer.on_clear_all(m)))
+        control('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.transfer.on_clear_all(m, t)))
         control('MISSION_SET_CURRENT', self._mission(lambda m, t: self._set_current(m.seq)))
         on('COMMAND_ACK', self._on_command_ack)
         on('HEARTBEAT', self._on_heartbeat)
         on('PARAM_REQUEST_LIST', self._on_param_request_list)
         on('PARAM_REQUEST_READ', self._on_param_request_read)
-        on('MISSION_REQUEST_LIST', self._mission(lambda m, t: self.transfer.on_request_list(m)))
-        on('MISSION_REQUEST_INT', self._mission(lambda m, t: self.transfer.on_request(m)))
-        on('MISSION_REQUEST', self._mission(lambda m, t: self.transfer.on_request(m)))
+        on('MISSION_REQUEST_LIST', self._mission(lambda m, t: self.transfer.on_request_list(m, t)))
+        on('MISSION_REQUEST_INT', self._mission(lambda m, t: self.transfer.on_request(m, t)))
+        on('MISSION_REQUEST', self._mission(lambda m, t: self.transfer.on_request(m, t)))
+        on('MISSION_ACK', self._mission(lambda m, t: self.transfer.on_ack(m, t)))
         on('TIMESYNC', self._on_timesync)
 
     def _control(self, msg_type, handler):
@@ -232,9 +235,12 @@ class SimulatedPx4:
         return False
 
     def _mission(self, handler):
+        """`handler` for what PX4's mission manager takes (sim.mission: its own system id only)."""
         def handle(msg):
-            if self._for_me(msg):
+            if self.transfer.for_me(msg):
                 handler(msg, self.t())
+            else:
+                self.counters['ignored_other_system'] += 1
         return handle
 
     def _ack(self, msg, command, result, delay_s=ACK_DELAY_S):
