@@ -329,6 +329,12 @@ class BridgeTest(OffboardTestCase):
             self.assertEqual(getattr(res.value, field), wanted, name)
             self.assertEqual(getattr(get(param_id=name).value, field), wanted, name)
         self.assertFalse(get(param_id='NO_SUCH_PARAM').success)
+        # as mavros, the pull and each set mirror the FCU's values into ~param/<ID> (int or float by type)
+        mirrored = rospy.get_param('mavros/param', {})
+        self.assertGreaterEqual(len(mirrored), pull.param_received - 1, 'all but _HASH_CHECK in ~param')
+        self.assertNotIn('_HASH_CHECK', mirrored)
+        self.assertEqual((mirrored.get('MIS_TAKEOFF_ALT'), type(mirrored.get('MIS_TAKEOFF_ALT'))), (3.0, float))
+        self.assertEqual((mirrored.get('COM_OBL_RC_ACT'), type(mirrored.get('COM_OBL_RC_ACT'))), (4, int))
 
     def test_08_mission_push_waypoints_clear(self):
         self.wait_for_connected(self.sim, 15.0)

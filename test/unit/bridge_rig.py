@@ -129,7 +129,21 @@ class FakeRos:
         return self.name
 
     def get_param(self, name, default):
-        return self.params.get(name, default)
+        """A name with slashes reads into the tree, as the parameter server does: `~param` is the
+        dictionary that `~param/NAME`s were set in."""
+        node = self.params
+        for part in name.split('/'):
+            if not isinstance(node, dict) or part not in node:
+                return default
+            node = node[part]
+        return node
+
+    def set_param(self, name, value):
+        *path, leaf = name.split('/')
+        node = self.params
+        for part in path:
+            node = node.setdefault(part, {})
+        node[leaf] = value
 
     def publisher(self, name, _data_class, queue_size, latch, on_subscribers):
         self.topics[name] = FakePublisher(latch, queue_size, on_subscribers)

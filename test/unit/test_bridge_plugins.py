@@ -513,10 +513,10 @@ PARAMS = [('MAV_SYS_ID', mavlink.MAV_PARAM_TYPE_INT32, 1), ('MPC_XY_VEL_MAX', ma
           ('MIS_TAKEOFF_ALT', mavlink.MAV_PARAM_TYPE_REAL32, 2.5)]
 
 
-def param_value(index):
+def param_value(index, count=len(PARAMS)):
     name, kind, value = PARAMS[index]
     wire = int32_on_wire(value) if kind == mavlink.MAV_PARAM_TYPE_INT32 else value
-    return BUILD.param_value_encode(name.encode(), wire, kind, len(PARAMS), index)
+    return BUILD.param_value_encode(name.encode(), wire, kind, count, index)
 
 
 def test_param_pull_rereads_the_missing_indices(monkeypatch):
@@ -580,6 +580,49 @@ def answer_read(m):
     names = [name for name, _kind, _value in PARAMS]
     index = m.param_index if m.param_index >= 0 else (names.index(m.param_id) if m.param_id in names else None)
     return [] if index is None else [param_value(index)]
+
+
+def test_param_pull_mirrors_the_list_into_ros_parameters_as_mavros(monkeypatch):
+    """After ~param/pull, `rosparam get /mavros/param/MPC_XY_VEL_MAX` finds the FCU's value, as with mavros:
+    an int for an INT32 parameter, a float for a REAL32 one, PX4's _HASH_CHECK left out."""
+    monkeypatch.setattr(param, 'LIST_TIMEOUT_S', 2.0)
+    rig = Rig(param.Param)
+    hash_check = BUILD.param_value_encode(b'_HASH_CHECK', int32_on_wire(-123456), mavlink.MAV_PARAM_TYPE_INT32,
+                                          len(PARAMS) + 1, len(PARAMS))
+    rig.fcu.answers['PARAM_REQUEST_LIST'] = lambda _m: [param_value(i, len(PARAMS) + 1)
+                                                        for i in range(len(PARAMS))] + [hash_check]
+    rig.fcu.send(param_value(1))  # the pull after connection has not run: nothing is mirrored yet
+    assert rig.ros.get_param('~param', None) is None, 'mavros mirrors on ~param/pull and ~param/set only'
+    assert rig.call('~param/pull', ParamPullRequest()).success
+    mirrored = rig.ros.get_param('~param', {})
+    assert mirrored == {'MAV_SYS_ID': 1, 'MPC_XY_VEL_MAX': 12.0, 'COM_RCL_EXCEPT': 4, 'NAV_DLL_ACT': -1,
+                        'MIS_TAKEOFF_ALT': 2.5}
+    assert [type(mirrored[name]) for name in ('COM_RCL_EXCEPT', 'MPC_XY_VEL_MAX')] == [int, float]
+
+
+def test_param_set_mirrors_the_echoed_value(monkeypatch):
+    rig = param_fcu_rig(monkeypatch)
+    request = ParamSetRequest(param_id='COM_RCL_EXCEPT')
+    request.value.integer = 7
+    assert rig.call('~param/set', request).success
+    assert rig.ros.get_param('~param/COM_RCL_EXCEPT', None) == 7
+    rig.fcu.answers['PARAM_SET'] = lambda _m: []  # an FCU that stops echoing: its last value stays mirrored
+    monkeypatch.setattr(param, 'SET_TIMEOUT_S', 0.05)
+    request.value.integer = 9
+    assert not rig.call('~param/set', request).success
+    assert rig.ros.get_param('~param/COM_RCL_EXCEPT', None) == 7
+
+
+def test_param_push_reads_back_what_the_pull_mirrored_and_skips_mavros_s_excluded_ids(monkeypatch):
+    from mavros_msgs.srv import ParamPushRequest
+    rig = param_fcu_rig(monkeypatch)
+    rig.ros.params['~param'] = {'COM_RCL_EXCEPT': 4}
+    rig.call('~param/get', ParamGetRequest(param_id='COM_RCL_EXCEPT'))
+    rig.ros.set_param('~param/COM_RCL_EXCEPT', 6)  # `rosparam set /mavros/param/COM_RCL_EXCEPT 6`
+    rig.ros.set_param('~param/STAT_BOOTCNT', 3)
+    res = rig.call('~param/push', ParamPushRequest())
+    assert (res.success, res.param_transfered) == (True, 1)
+    assert [m.param_id for m in rig.fcu.got('PARAM_SET')] == ['COM_RCL_EXCEPT'], 'STAT_BOOTCNT is never pushed'
 
 
 def param_fcu_rig(monkeypatch):

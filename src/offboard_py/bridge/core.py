@@ -6,8 +6,8 @@ A plugin is a class built with the Bridge and using only this interface:
   cache); `on_raw` (a frame, decoded when read), `on_frames` and `send_frame` (mavros's
   mavlink/from and mavlink/to); `listened(*publishers)` makes a `needed`; `commands` (the cmd
   plugin's COMMAND_ACK waiter, when loaded: `expect(cmd)` before sending a command nothing waits for);
-- ROS: `publisher`, `subscriber`, `service`, `now()` (a stamp), `is_shutdown()`, all passed on
-  to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
+- ROS: `publisher`, `subscriber`, `service`, `get_param`, `set_param`, `now()` (a stamp), `is_shutdown()`,
+  all passed on to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
 - time and connection: `monotonic_s()`, `every`, `after_connect`, `retry_while_connected`
   (bridge/scheduler.py holds the timers and the retry policy), `on_connection`, `connected`;
@@ -137,6 +137,10 @@ class Bridge:
     def get_param(self, name, default):
         """A ROS parameter (`~name` is the node's own)."""
         return self._ros.get_param(name, default)
+
+    def set_param(self, name, value):
+        """Set a ROS parameter (`~name` is the node's own)."""
+        self._ros.set_param(name, value)
 
     def is_shutdown(self):
         return self._ros.is_shutdown()

@@ -72,6 +72,10 @@ class RospyEndpoints:
         return rospy.get_param(name, default)
 
     @staticmethod
+    def set_param(name, value):
+        rospy.set_param(name, value)
+
+    @staticmethod
     def is_shutdown():
         return rospy.is_shutdown()
 

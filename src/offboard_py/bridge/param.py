@@ -6,6 +6,11 @@ from that list. ~param/set sends PARAM_SET, with PX4's bytewise INT32 encoding
 (offboard_py.param_codec), and waits for the PARAM_VALUE echo: success when the FCU
 echoes the value asked for. Integer parameters travel in value.integer, floats in value.real.
 
+As mavros, the values are mirrored into the ROS parameter server under ~param/<ID> (an int for an
+integer parameter, a float for a REAL32 one) once ~param/pull has run and after each ~param/set, but
+not after the pull that follows the connection; PX4's _HASH_CHECK is never mirrored. ~param/push
+reads ~param back, skipping the ids mavros never pushes (PUSH_EXCLUDED).
+
 Better than mavros, which answers success=false until its pull is done (PX4's own
 posctl test sets COM_RCL_EXCEPT right after start and gives up): a get or set of a
 parameter not pulled yet waits for a pull under way, else reads that one parameter from
@@ -32,6 +37,12 @@ READ_TIMEOUT_S, READ_RETRIES = 1.0, 3
 PARAM_ID_MAX = 16                 # MAVLink's param_id is char[16]
 QUIET_S = 1.0                     # no PARAM_VALUE for this long: re-read what is missing
 INDEX_UNKNOWN = 0xFFFF            # PARAM_VALUE.param_index when the FCU gives none (MAVLink's -1 as uint16)
+NOT_MIRRORED = '_HASH_CHECK'      # PX4's hash of the whole list: mavros keeps it out of ~param
+# Counters and calibration results that mavros's param/push never writes back (its check_exclude_param_id);
+# most are ArduPilot's, kept so that a ~param loaded from an ArduPilot dump pushes as with mavros.
+PUSH_EXCLUDED = frozenset(('SYSID_SW_MREV', 'SYS_NUM_RESETS', 'ARSPD_OFFSET', 'GND_ABS_PRESS', 'GND_ABS_PRESS2',
+                           'GND_ABS_PRESS3', 'STAT_BOOTCNT', 'STAT_FLTTIME', 'STAT_RESET', 'STAT_RUNTIME', 'GND_TEMP',
+                           'CMD_TOTAL', 'CMD_INDEX', 'LOG_LASTFILE', 'FENCE_TOTAL', 'FORMAT_VERSION'))
 
 
 class Param:
@@ -99,7 +110,22 @@ class Param:
 
     def _pull(self, req):
         received = self.pull(req.force_pull)
+        with self.lock:
+            pulled = sorted(self.values)
+        for param_id in pulled:  # as mavros, whether the pull is complete or not
+            self._mirror(param_id)
         return ParamPullResponse(success=self.complete(), param_received=received)
+
+    def _mirror(self, param_id):
+        """Put the FCU's value of a parameter into ~param/<ID>, so that `rosparam get` and a later
+        ~param/push see it, as mavros's rosparam_set_allowed: an int or a float by the parameter's type."""
+        with self.lock:
+            value, param_type = self.values[param_id]
+        if param_id == NOT_MIRRORED:
+            rospy.loginfo('PR: PX4 parameter %s ignored: 0x%08x', param_id, int(value) & 0xFFFFFFFF)
+            return
+        self.bridge.set_param('~param/' + param_id,
+                              int(value) if param_codec.is_integer(param_type) else float(value))
 
     @staticmethod
     def _value_msg(value, param_type):
@@ -171,22 +197,33 @@ class Param:
             return ParamSetResponse(success=False, value=self._value_msg(*entry))
         wanted = self._as_sent(req.param_id, param_type, wanted, 'value.integer' if req.value.integer else 'value.real')
         wire = param_codec.encode(param_type, wanted)
+        echo = None
         for _ in range(SET_RETRIES):
             with self.lock:
                 before = self.arrivals[req.param_id]
             b.send(b.mav.param_set_encode(b.target_system, b.target_component, req.param_id.encode(), wire,
                                           param_type))
-            deadline = b.monotonic_s() + SET_TIMEOUT_S
-            with self.lock:
-                while self.bridge.monotonic_s() < deadline and not b.is_shutdown():
-                    if self.arrivals[req.param_id] != before:
-                        value, vtype = self.values[req.param_id]
-                        same = value == wanted or (not param_codec.is_integer(vtype) and abs(value - wanted) < 1e-6 *
-                                                   max(1.0, abs(wanted)))
-                        return ParamSetResponse(success=same, value=self._value_msg(value, vtype))
-                    self.lock.wait(0.05)
-        rospy.logerr('PR: %s: no PARAM_VALUE echo after %d tries', req.param_id, SET_RETRIES)
-        return ParamSetResponse(success=False, value=self._value_msg(*entry))
+            echo = self._echo(req.param_id, before, b.monotonic_s() + SET_TIMEOUT_S)
+            if echo is not None:
+                break
+        self._mirror(req.param_id)  # what the FCU last said, echo or not, as mavros's set_cb writes it
+        if echo is None:
+            rospy.logerr('PR: %s: no PARAM_VALUE echo after %d tries', req.param_id, SET_RETRIES)
+            return ParamSetResponse(success=False, value=self._value_msg(*entry))
+        value, vtype = echo
+        same = value == wanted or (not param_codec.is_integer(vtype) and abs(value - wanted) < 1e-6 *
+                                   max(1.0, abs(wanted)))
+        return ParamSetResponse(success=same, value=self._value_msg(value, vtype))
+
+    def _echo(self, param_id, before, deadline_s):
+        """(value, type) of the first PARAM_VALUE of `param_id` after the `before`th, or None by the deadline."""
+        b = self.bridge
+        with self.lock:
+            while b.monotonic_s() < deadline_s and not b.is_shutdown():
+                if self.arrivals[param_id] != before:
+                    return self.values[param_id]
+                self.lock.wait(0.05)
+        return None
 
     @staticmethod
     def _as_sent(param_id, param_type, value, field):
@@ -215,6 +252,8 @@ class Param:
             return ParamPushResponse(success=False, param_transfered=0)
         transferred, failed = 0, []
         for name, value in sorted(wanted.items()):
+            if name in PUSH_EXCLUDED:
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 rospy.logerr('PR: ~param/%s: %r is not a number', name, value)
                 failed.append(name)
