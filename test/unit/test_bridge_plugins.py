@@ -1225,8 +1225,7 @@ def test_statustext_both_ways_vfr_hud_rc_in_and_estimator_status():
     text = rig.published('~statustext/recv')[-1]
     assert (text.severity, text.text) == (4, 'Preflight Fail: baro')
     rig.ros.subscriptions['~statustext/send'](StatusText(severity=6, text='hello PX4'))
-    rig.ros.subscriptions['~statustext/send'](StatusText(severity=6, text='x' * 51))
-    assert [(m.severity, m.text) for m in rig.fcu.got('STATUSTEXT')] == [(6, 'hello PX4')], '51 characters refused'
+    assert [(m.severity, m.text) for m in rig.fcu.got('STATUSTEXT')] == [(6, 'hello PX4')]
     rig.fcu.send(BUILD.vfr_hud_encode(0.5, 0.4, 90, 55, 490.2, -0.1))
     hud = rig.published('~vfr_hud')[-1]
     assert (hud.heading, hud.throttle, hud.altitude) == pytest.approx((90, 0.55, 490.2))
@@ -1236,6 +1235,25 @@ def test_statustext_both_ways_vfr_hud_rc_in_and_estimator_status():
     rig.fcu.send(BUILD.estimator_status_encode(0, 1023, 0, 0, 0, 0, 0, 0, 0, 0))
     est = rig.published('~estimator_status')[-1]
     assert est.attitude_status_flag and est.const_pos_mode_status_flag and not est.gps_glitch_status_flag
+
+
+def test_statustext_send_cuts_a_long_text_after_50_bytes_as_mavros(caplog):
+    """mavros's set_string_z: the UTF-8 bytes, the first 50 sent, a warning from 50 bytes on; a long
+    text is sent, not dropped, and a non-ASCII one goes as its UTF-8 bytes."""
+    from mavros_msgs.msg import StatusText
+    from offboard_py.bridge import statustext
+    rig = Rig(statustext.StatusTexts)
+    send = rig.ros.subscriptions['~statustext/send']
+    send(StatusText(severity=4, text='x' * 49 + 'yz'))
+    send(StatusText(severity=6, text='Höhe 5 m'))
+    send(StatusText(severity=6, text='a' * 49 + 'é'))  # 51 bytes: the cut halves the é
+    sent = rig.fcu.got('STATUSTEXT')
+    # the text field's bytes as framed (MAVLink 2: 10 header bytes, the payload's trailing zeros cut, 2 CRC bytes)
+    assert [bytes(m.get_msgbuf()[10:-2]).ljust(51, b'\0')[1:51] for m in sent] == [
+        b'x' * 49 + b'y', 'Höhe 5 m'.encode() + bytes(41), b'a' * 49 + 'é'.encode()[:1]]
+    assert [m.severity for m in sent] == [4, 6, 6]
+    assert [r.getMessage() for r in caplog.records if 'truncating' in r.getMessage()] == [
+        'Status text too long: truncating...'] * 2
 
 
 def test_rc_out_and_sys_status_as_mavros():

@@ -2,14 +2,16 @@
 
 - Each STATUSTEXT from the FCU is logged as mavros does ("FCU: <text>", at the level of its
   severity) and published on ~statustext/recv (mavros_msgs/StatusText).
-- A StatusText on ~statustext/send goes to the FCU as STATUSTEXT; a text over MAVLink's 50
-  characters or not ASCII is refused and logged, naming it.
+- A StatusText on ~statustext/send goes to the FCU as STATUSTEXT, as mavros sends it: the text's
+  UTF-8 bytes, cut after MAVLink's 50 (mavros's set_string_z; a character may be cut in two), with
+  mavros's warning when the text has 50 bytes or more. Dropping it instead, as the bridge did, lost
+  a user's message that mavros delivers.
 """
 
 import rospy
 from mavros_msgs.msg import StatusText
 
-TEXT_MAX = 50
+TEXT_MAX = 50  # STATUSTEXT.text is char[50]
 
 
 def _log_for(severity):
@@ -37,8 +39,8 @@ class StatusTexts:
             self.pub.publish(out)
 
     def _send(self, msg):
-        if len(msg.text) > TEXT_MAX or not msg.text.isascii():
-            rospy.logerr('STATUSTEXT: %r not sent: at most %d ASCII characters', msg.text, TEXT_MAX)
-            return
+        text = msg.text.encode('utf-8', 'surrogateescape')
+        if len(text) >= TEXT_MAX:  # mavros's condition: at 50 nothing is cut, but it warns all the same
+            rospy.logwarn('Status text too long: truncating...')
         b = self.bridge
-        b.send(b.mav.statustext_encode(msg.severity, msg.text.encode()))
+        b.send(b.mav.statustext_encode(msg.severity, text[:TEXT_MAX]))
