@@ -1187,10 +1187,14 @@ def test_set_message_interval_and_stream_rate():
     assert rig.call('~set_message_interval', MessageIntervalRequest(message_id=30, message_rate=-1.0)).success
     assert [(m.command, m.param1, m.param2) for m in rig.fcu.got('COMMAND_LONG')] == [
         (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 30.0, 100000.0), (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 30.0, -1.0)]
+    # mavros's success is that its call to cmd/command went through: true with a refusal or no ACK at all
+    rig.fcu.answers['COMMAND_LONG'] = lambda m: ack(m, mavlink.MAV_RESULT_DENIED)
+    assert rig.call('~set_message_interval', MessageIntervalRequest(message_id=9999, message_rate=1.0)).success
     rig.fcu.answers['COMMAND_LONG'] = lambda m: []
     command_timeout = rig.plugin.timeout_s
     rig.plugin.timeout_s = 0.05
-    assert not rig.call('~set_message_interval', MessageIntervalRequest(message_id=30, message_rate=1.0)).success
+    assert rig.call('~set_message_interval', MessageIntervalRequest(message_id=30, message_rate=1.0)).success
+    assert len(rig.fcu.got('COMMAND_LONG')) == 4, 'each call sent its command'
     rig.plugin.timeout_s = command_timeout
     rig.call('~set_stream_rate', StreamRateRequest(stream_id=0, message_rate=10, on_off=True))
     [stream] = rig.fcu.got('REQUEST_DATA_STREAM')

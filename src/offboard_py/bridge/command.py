@@ -9,7 +9,9 @@ service call, as in mavros. Different commands may wait at once. As in mavros 1.
 - cmd/command with broadcast=true goes to system 0 and waits for nothing (success=true);
 - cmd/command_int sends COMMAND_INT and waits for nothing (success=true once sent);
 - set_message_interval sends MAV_CMD_SET_MESSAGE_INTERVAL (rate > 0: 1e6/rate us, 0: the
-  default rate, < 0: off) and succeeds when the FCU answered (its result is in the log);
+  default rate, < 0: off) as mavros's sys_status does, through cmd/command: it waits for the ACK,
+  and answers success=true whatever came (an ACK with any result, or none), since mavros's success
+  is that its call to cmd/command went through; the call fails only while the same command waits;
 - set_stream_rate sends the old REQUEST_DATA_STREAM (PX4 ignores it) and answers nothing;
 - a COMMAND_ACK nobody waits for is logged, at most every 10 s ("CMD: Unexpected command 520,
   result 0" once PX4 answers the AUTOPILOT_VERSION request sys_status sends on connection).
@@ -156,15 +158,12 @@ class Command:
         else:
             interval_us = 1e6 / req.message_rate
         try:
-            answered, result = self.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, [req.message_id, interval_us],
-                                                 confirmation=0)
+            self.command_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, [req.message_id, interval_us], confirmation=0)
         except Busy as err:
+            # mavros's cmd/command call returns false here, and set_message_interval with it
+            rospy.logerr('SetMessageInterval: command plugin service call failed!')
             raise rospy.ServiceException(str(err))
-        if result != mavlink.MAV_RESULT_ACCEPTED:
-            rospy.logerr('SetMessageInterval: message %d at %g Hz: MAV_RESULT %d', req.message_id, req.message_rate,
-                         result)
-        # as mavros: success means the command went through (an ACK came), whatever its result
-        return MessageIntervalResponse(success=answered or result != mavlink.MAV_RESULT_FAILED)
+        return MessageIntervalResponse(success=True)
 
     def _set_stream_rate(self, req):
         b = self.bridge
