@@ -333,6 +333,21 @@ def test_second_call_for_a_waiting_command_is_refused():
     assert len(rig.fcu.got('COMMAND_LONG')) == 1, 'the refused call sends nothing'
 
 
+def test_a_broadcast_of_a_command_that_waits_for_its_ack_is_refused_as_mavros():
+    """mavros's send_command_long_and_wait looks for the command among those waiting before it looks
+    at broadcast: the call fails and nothing is sent."""
+    from mavros_msgs.srv import CommandLongRequest
+    rig = Rig(command.Command, cmd__command_ack_timeout=5.0)
+    first = threading.Thread(target=lambda: rig.call('~cmd/arming', CommandBoolRequest(value=True)))
+    first.start()
+    assert wait_until(lambda: rig.fcu.got('COMMAND_LONG')), 'the first call sent no COMMAND_LONG'
+    with pytest.raises(rospy.ServiceException):
+        rig.call('~cmd/command', CommandLongRequest(broadcast=True, command=mavlink.MAV_CMD_COMPONENT_ARM_DISARM))
+    rig.fcu.send(BUILD.command_ack_encode(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavlink.MAV_RESULT_ACCEPTED))
+    first.join(2.0)
+    assert len(rig.fcu.got('COMMAND_LONG')) == 1, 'the refused broadcast sends nothing'
+
+
 # -- mission -----------------------------------------------------------------------------------
 
 def waypoint(frame, cmd, x, y, z, current=False):
@@ -1165,8 +1180,12 @@ def test_cmd_command_waits_for_the_ack_unless_broadcast():
     assert (res.success, res.result) == (False, mavlink.MAV_RESULT_DENIED)
     [sent] = rig.fcu.got('COMMAND_LONG')
     assert (sent.target_system, sent.command, sent.param1, sent.confirmation) == (1, 512, 148.0, 0)
-    res = rig.call('~cmd/command', CommandLongRequest(broadcast=True, command=mavlink.MAV_CMD_REQUEST_MESSAGE))
-    assert res.success and rig.fcu.got('COMMAND_LONG')[-1].target_system == 0
+    res = rig.call('~cmd/command', CommandLongRequest(broadcast=True, command=mavlink.MAV_CMD_REQUEST_MESSAGE,
+                                                      confirmation=3))
+    assert (res.success, res.result) == (True, mavlink.MAV_RESULT_ACCEPTED)
+    last = rig.fcu.got('COMMAND_LONG')[-1]
+    assert (last.target_system, last.target_component, last.confirmation) == (0, 0, 0), \
+        'mavros sends a broadcast with confirmation 0 whatever the request says'
 
 
 def test_cmd_command_int_sends_and_does_not_wait():

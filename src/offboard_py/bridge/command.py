@@ -6,7 +6,9 @@ Each COMMAND_LONG waits for the matching COMMAND_ACK up to cmd/command_ack_timeo
 success = ACCEPTED, result = the ACK's MAV_RESULT; no ACK gives success=false,
 result=MAV_RESULT_FAILED. A second call for a command that is still waiting fails as a
 service call, as in mavros. Different commands may wait at once. As in mavros 1.x:
-- cmd/command with broadcast=true goes to system 0 and waits for nothing (success=true);
+- cmd/command with broadcast=true goes to system 0, component 0 with confirmation 0 whatever the
+  request says (command.cpp's confirmation_fixed), and waits for nothing (success=true); like any
+  call it fails while the same command waits for its ACK;
 - cmd/command_int sends COMMAND_INT and waits for nothing (success=true once sent);
 - set_message_interval sends MAV_CMD_SET_MESSAGE_INTERVAL (rate > 0: 1e6/rate us, 0: the
   default rate, < 0: off) as mavros's sys_status does, through cmd/command: it waits for the ACK,
@@ -55,6 +57,9 @@ class CommandWaiter:
             entry = [threading.Event(), None]
             self._pending[cmd] = entry
             return entry
+
+    def waiting(self, cmd):
+        return cmd in self._pending
 
     def end(self, cmd):
         with self._lock:
@@ -137,8 +142,10 @@ class Command:
     def _command(self, req):
         params = (req.param1, req.param2, req.param3, req.param4, req.param5, req.param6, req.param7)
         if req.broadcast:
+            if self.waiter.waiting(req.command):  # mavros looks for it before it looks at broadcast
+                raise rospy.ServiceException('command %d is already waiting for its COMMAND_ACK' % req.command)
             b = self.bridge
-            b.send(b.mav.command_long_encode(0, 0, req.command, req.confirmation, *params))
+            b.send(b.mav.command_long_encode(0, 0, req.command, 0, *params))  # a broadcast is never confirmed
             return CommandLongResponse(success=True, result=mavlink.MAV_RESULT_ACCEPTED)
         success, result = self._call(req.command, params, req.confirmation)
         return CommandLongResponse(success=success, result=result)
