@@ -40,9 +40,13 @@ def _ours():
 
 
 UPSTREAM = _upstream_md5s()
-# geographic_msgs is not mavros_msgs: GeoPoint's sum is upstream geographic_msgs's, of the definition
-# reference/mavros-api.md gives (float64 latitude, longitude, altitude)
-EXPECTED = dict(UPSTREAM, **{'geographic_msgs/GeoPoint': 'c48027a852aeff972be80478ff38e81a'})
+# geographic_msgs is not mavros_msgs: the sums are upstream geographic_msgs's (ROS 1), of its definitions
+# (GeoPoint: float64 latitude, longitude, altitude; GeoPose: GeoPoint position, geometry_msgs/Quaternion
+# orientation; GeoPoseStamped: Header header, GeoPose pose), the same as the generated code of other
+# projects carries for these types
+EXPECTED = dict(UPSTREAM, **{'geographic_msgs/GeoPoint': 'c48027a852aeff972be80478ff38e81a',
+                             'geographic_msgs/GeoPose': '778680b5172de58b7c057d973576c784',
+                             'geographic_msgs/GeoPoseStamped': 'cc409c8ed6064d8a846fa207bf3fba6b'})
 OURS = _ours()
 SERVICES = {full_name.split('/')[1] for full_name, kind in OURS if kind == 'srv'}
 
