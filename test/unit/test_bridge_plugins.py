@@ -31,10 +31,11 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
     assert set(rig.ros.services) == {
         '~set_mode', '~cmd/arming', '~cmd/takeoff', '~cmd/land', '~cmd/command', '~cmd/command_int',
         '~set_message_interval', '~set_stream_rate', '~param/pull', '~param/get', '~param/set', '~param/push',
-        '~mission/push', '~mission/pull', '~mission/clear', '~mission/set_current'}
+        '~mission/push', '~mission/pull', '~mission/clear', '~mission/set_current', '~cmd/command_ack',
+        '~cmd/set_home', '~home_position/req_update'}
     assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local',
                                           '~setpoint_velocity/cmd_vel', '~setpoint_velocity/cmd_vel_unstamped',
-                                          '~setpoint_raw/attitude', '~setpoint_raw/global',
+                                          '~setpoint_raw/attitude', '~setpoint_raw/global', '~setpoint_position/global',
                                           '~setpoint_attitude/cmd_vel', '~setpoint_attitude/thrust',
                                           '~statustext/send', 'mavlink/to'}
     topics = rig.ros.topics
@@ -47,7 +48,7 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~imu/diff_pressure', '~imu/temperature_baro',
         '~home_position/home', '~mission/waypoints', '~mission/reached', '~time_reference', '~battery',
         '~geofence/waypoints', '~rallypoint/waypoints',
-        '~setpoint_raw/target_local', '~setpoint_raw/target_attitude', '~statustext/recv', '~vfr_hud', '~rc/in',
+        '~setpoint_raw/target_local', '~setpoint_raw/target_attitude', '~setpoint_raw/target_global', '~statustext/recv', '~vfr_hud', '~rc/in',
         '~rc/out', '~sys_status', '~estimator_status', '~timesync_status', 'mavlink/from', '/diagnostics', '/tf',
         '/tf_static'}
     assert {name for name, pub in topics.items() if pub.latch} == {
@@ -282,6 +283,26 @@ def test_home_position_request_expects_its_ack():
     rig.tick(113.0)
     assert [m.command for m in rig.fcu.got('COMMAND_LONG')] == [mavlink.MAV_CMD_GET_HOME_POSITION]
     assert rig.plugin.waiter.unexpected == 0
+
+
+def test_home_position_req_update_asks_through_cmd_command_as_mavros():
+    """~home_position/req_update: MAV_CMD_GET_HOME_POSITION (confirmation 0), success = the ACK's ACCEPTED."""
+    from std_srvs.srv import TriggerRequest
+    rig = Rig(home_position.HomePosition, command.Command)
+    rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_ACCEPTED)
+    assert rig.call('~home_position/req_update', TriggerRequest()).success
+    [sent] = rig.fcu.got('COMMAND_LONG')
+    assert (sent.command, sent.confirmation, sent.target_system) == (mavlink.MAV_CMD_GET_HOME_POSITION, 0, 1)
+    rig.fcu.answers['COMMAND_LONG'] = ack_with(mavlink.MAV_RESULT_DENIED)
+    assert not rig.call('~home_position/req_update', TriggerRequest()).success
+    assert rig.plugin.bridge.commands.unexpected == 0
+
+
+def test_home_position_req_update_without_the_cmd_plugin_fails_as_mavros_s_call_does():
+    from std_srvs.srv import TriggerRequest
+    rig = Rig(home_position.HomePosition)
+    assert not rig.call('~home_position/req_update', TriggerRequest()).success
+    assert rig.fcu.got('COMMAND_LONG') == []
 
 
 def test_no_home_request_once_home_position_came():
@@ -1188,6 +1209,28 @@ def test_cmd_command_waits_for_the_ack_unless_broadcast():
         'mavros sends a broadcast with confirmation 0 whatever the request says'
 
 
+def test_cmd_set_home_and_command_ack_as_mavros():
+    """cmd/set_home: MAV_CMD_DO_SET_HOME with confirmation 1, waiting for the ACK; cmd/command_ack: a
+    COMMAND_ACK to the FCU, success and ACCEPTED once sent."""
+    from mavros_msgs.srv import CommandAckRequest, CommandHomeRequest
+    rig = Rig(command.Command)
+    rig.fcu.answers['COMMAND_LONG'] = lambda m: ack(m, mavlink.MAV_RESULT_DENIED)
+    res = rig.call('~cmd/set_home', CommandHomeRequest(current_gps=False, yaw=90.0, latitude=47.5, longitude=8.5,
+                                                       altitude=500.0))
+    assert (res.success, res.result) == (False, mavlink.MAV_RESULT_DENIED)
+    res = rig.call('~cmd/set_home', CommandHomeRequest(current_gps=True))
+    first, second = rig.fcu.got('COMMAND_LONG')
+    assert (first.command, first.confirmation, first.param1, first.param4, first.param5, first.param6,
+            first.param7) == (mavlink.MAV_CMD_DO_SET_HOME, 1, 0.0, 90.0, 47.5, 8.5, 500.0)
+    assert second.param1 == 1.0
+    res = rig.call('~cmd/command_ack', CommandAckRequest(command=mavlink.MAV_CMD_USER_1, result=mavlink.MAV_RESULT_DENIED,
+                                                         progress=7, result_param2=-3 & 0xFFFFFFFF))
+    assert (res.success, res.result) == (True, mavlink.MAV_RESULT_ACCEPTED)
+    [sent] = rig.fcu.got('COMMAND_ACK')
+    assert (sent.command, sent.result, sent.progress, sent.result_param2, sent.target_system,
+            sent.target_component) == (mavlink.MAV_CMD_USER_1, mavlink.MAV_RESULT_DENIED, 7, -3, 1, 1)
+
+
 def test_cmd_command_int_sends_and_does_not_wait():
     from mavros_msgs.srv import CommandIntRequest
     rig = Rig(command.Command)
@@ -1389,6 +1432,37 @@ def test_raw_global_setpoint():
     [sent] = rig.fcu.got('SET_POSITION_TARGET_GLOBAL_INT')
     assert (sent.lat_int, sent.lon_int, sent.alt, sent.coordinate_frame) == (473977419, 85455938, 20.0, 6)
     assert sent.yaw == pytest.approx(math.pi / 2), 'ENU yaw 0 (east) is NED yaw +90 deg'
+
+
+def test_setpoint_position_global_goes_out_as_mavros_s_global_int_setpoint():
+    """mavros's setpointg_cb: GLOBAL_INT, position and yaw (0x1F8), int32_t(deg * 1e7), altitude as it is,
+    the yaw of the orientation turned to NED/FRD without normalising it."""
+    from geographic_msgs.msg import GeoPoseStamped
+    rig = Rig(setpoint.Setpoint)
+    send = rig.ros.subscriptions['~setpoint_position/global']
+    msg = GeoPoseStamped()
+    msg.header.stamp = rospy.Time(12, 345000000)
+    msg.pose.position.latitude, msg.pose.position.longitude, msg.pose.position.altitude = 47.39774199, -8.54559399, 510.5
+    msg.pose.orientation.w = 1.0  # facing east
+    send(msg)
+    msg.pose.orientation.w = 0.0  # all zero: mavros's yaw is 0, north
+    send(msg)
+    east, zero = rig.fcu.got('SET_POSITION_TARGET_GLOBAL_INT')
+    assert (east.coordinate_frame, east.type_mask, east.lat_int, east.lon_int, east.alt, east.time_boot_ms) == (
+        mavlink.MAV_FRAME_GLOBAL_INT, 0x1F8, 473977419, -85455939, 510.5, 12345), 'truncated toward zero'
+    assert (east.yaw, zero.yaw, east.yaw_rate) == (pytest.approx(math.pi / 2), 0.0, 0.0)
+    assert (east.target_system, east.target_component) == (1, 1)
+
+
+def test_target_global_comes_back_enu():
+    rig = Rig(setpoint.Setpoint)
+    rig.fcu.send(BUILD.position_target_global_int_encode(5000, mavlink.MAV_FRAME_GLOBAL_INT, 0x1F8, 473977420,
+                                                         85455940, 510.5, 1.0, 2.0, 3.0, 0, 0, 0, 0.0, 0.25))
+    [tgt] = rig.published('~setpoint_raw/target_global')
+    assert (tgt.latitude, tgt.longitude, tgt.altitude, tgt.type_mask) == pytest.approx((47.397742, 8.545594, 510.5,
+                                                                                        0x1F8))
+    assert (tgt.velocity.x, tgt.velocity.y, tgt.velocity.z) == (2.0, 1.0, -3.0)
+    assert (tgt.yaw, tgt.yaw_rate) == (pytest.approx(math.pi / 2), -0.25)
 
 
 def test_raw_mavlink_from_and_to():

@@ -1,5 +1,7 @@
 """mavros command: ~cmd/arming (CommandBool), ~cmd/takeoff and ~cmd/land (CommandTOL),
-~cmd/command (CommandLong), ~cmd/command_int (CommandInt); and sys_status's
+~cmd/set_home (CommandHome: MAV_CMD_DO_SET_HOME, confirmation 1, as mavros), ~cmd/command
+(CommandLong), ~cmd/command_int (CommandInt), ~cmd/command_ack (CommandAck: a COMMAND_ACK to the
+FCU, success=true and result ACCEPTED once sent, as mavros); and sys_status's
 ~set_message_interval (MessageInterval) and ~set_stream_rate (StreamRate), which send commands.
 
 Each COMMAND_LONG waits for the matching COMMAND_ACK up to cmd/command_ack_timeout:
@@ -23,10 +25,12 @@ import threading
 import time
 
 import rospy
-from mavros_msgs.srv import (CommandBool, CommandBoolResponse, CommandInt, CommandIntResponse, CommandLong,
-                             CommandLongResponse, CommandTOL, CommandTOLResponse, MessageInterval,
-                             MessageIntervalResponse, StreamRate, StreamRateResponse)
+from mavros_msgs.srv import (CommandAck, CommandAckResponse, CommandBool, CommandBoolResponse, CommandHome,
+                             CommandHomeResponse, CommandInt, CommandIntResponse, CommandLong, CommandLongResponse,
+                             CommandTOL, CommandTOLResponse, MessageInterval, MessageIntervalResponse, StreamRate,
+                             StreamRateResponse)
 
+from offboard_py.bridge import c_casts
 from offboard_py.dialect import mavlink
 
 CONFIRMATION = 1  # what mavros's cmd plugin puts in COMMAND_LONG.confirmation for these services
@@ -93,6 +97,7 @@ class Command:
         self.bridge = bridge
         self.waiter = CommandWaiter(clock=bridge.monotonic_s)  # the throttle on ROS time, as mavros's
         bridge.provide('commands', self.waiter)  # for plugins that send a command themselves
+        bridge.provide('command_long', self.command_long)  # for plugins that ask through cmd/command, as mavros's
         self.timeout_s = bridge.cfg['cmd/command_ack_timeout']
         bridge.on('COMMAND_ACK', self.waiter.on_ack)
         self.services = [
@@ -101,6 +106,8 @@ class Command:
             bridge.service('~cmd/land', CommandTOL, self._land),
             bridge.service('~cmd/command', CommandLong, self._command),
             bridge.service('~cmd/command_int', CommandInt, self._command_int),
+            bridge.service('~cmd/command_ack', CommandAck, self._command_ack),
+            bridge.service('~cmd/set_home', CommandHome, self._set_home),
             bridge.service('~set_message_interval', MessageInterval, self._set_message_interval),
             bridge.service('~set_stream_rate', StreamRate, self._set_stream_rate),
         ]
@@ -138,6 +145,18 @@ class Command:
         success, result = self._call(mavlink.MAV_CMD_NAV_LAND, [0.0, 0.0, 0.0, req.yaw, req.latitude,
                                                                 req.longitude, req.altitude])
         return CommandTOLResponse(success=success, result=result)
+
+    def _set_home(self, req):
+        success, result = self._call(mavlink.MAV_CMD_DO_SET_HOME, [1.0 if req.current_gps else 0.0, 0.0, 0.0, req.yaw,
+                                                                   req.latitude, req.longitude, req.altitude])
+        return CommandHomeResponse(success=success, result=result)
+
+    def _command_ack(self, req):
+        b = self.bridge
+        # the service's uint32 result_param2 into MAVLink's int32, as mavros's assignment wraps it
+        b.send(b.mav.command_ack_encode(req.command, req.result, req.progress, c_casts.int32_from_int(req.result_param2),
+                                        b.target_system, b.target_component))
+        return CommandAckResponse(success=True, result=mavlink.MAV_RESULT_ACCEPTED)
 
     def _command(self, req):
         params = (req.param1, req.param2, req.param3, req.param4, req.param5, req.param6, req.param7)

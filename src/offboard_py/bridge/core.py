@@ -6,13 +6,14 @@ A plugin is a class built with the Bridge and using only this interface:
   cache); `on_raw` (a frame, decoded when read), `on_frames` and `send_frame` (mavros's
   mavlink/from and mavlink/to); `listened(*publishers)` makes a `needed`; `commands` (the cmd
   plugin's COMMAND_ACK waiter, when loaded: `expect(cmd)` before sending a command nothing waits for);
+  `command_long(cmd, params, confirmation)` (the cmd plugin's: send and wait for the ACK, (success, result));
 - ROS: `publisher`, `subscriber`, `service`, `get_param`, `set_param`, `now()` (a stamp), `is_shutdown()`,
   all passed on to the `ros` object the Bridge is built with (rospy in the node, memory in offline tests);
   `fcu_stamp_ms`/`fcu_stamp_us` stamp FCU-timed data through the sys_time plugin's offset;
 - time and connection: `monotonic_s()`, `every`, `after_connect`, `retry_while_connected`
   (bridge/scheduler.py holds the timers and the retry policy), `on_connection`, `connected`;
 - `diagnostic(name, status)`: status() -> (level, message, [(key, value)]) for /diagnostics;
-- `provide(name, what)`: what a plugin offers the others (`clock_offset`, `commands`).
+- `provide(name, what)`: what a plugin offers the others (`clock_offset`, `commands`, `command_long`).
 One thread receives MAVLink and runs the handlers and the periodic work (`start()`); service
 calls run in other threads and wait on events that thread sets. This module opens no
 socket and reads no ROS parameter: node.py does that.
@@ -63,6 +64,7 @@ class Bridge:
         # what one plugin offers the others (provide()): nothing until the plugin that offers it is loaded
         self.clock_offset = None  # sys_time's: stamp_ns(fcu_ns), read by fcu_stamp_*
         self.commands = None  # command's COMMAND_ACK waiter: expect(cmd) before sending a command itself
+        self.command_long = None  # command's command_long(cmd, params, confirmation): COMMAND_LONG and its ACK
         self.diagnostics = [('FCU connection', self._connection_status)]  # (name, status function)
         self._last_io = (clock(), 0, 0)  # the FCU connection status's last time, bytes in and out
         # registered before any plugin's handler, so readers see this message's attitude
@@ -200,7 +202,7 @@ class Bridge:
         """Run the periodic callbacks that are due at now_s (the receive loop's clock)."""
         self.scheduler.run_periodic(now_s)
 
-    PROVIDED = ('clock_offset', 'commands')
+    PROVIDED = ('clock_offset', 'commands', 'command_long')
 
     def provide(self, name, what):
         """A plugin offers `what` to the others under `name` (one of PROVIDED): the one way a plugin

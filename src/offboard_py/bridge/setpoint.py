@@ -18,6 +18,13 @@
   mavros; with a negative scaling, mavros's "unset", a setpoint with thrust is not sent);
   ~setpoint_raw/global (GlobalPositionTarget) out as SET_POSITION_TARGET_GLOBAL_INT
   (lat/lon *1e7, vectors ENU->NED, yaw and yaw rate to NED).
+- ~setpoint_position/global (geographic_msgs/GeoPoseStamped) out as SET_POSITION_TARGET_GLOBAL_INT
+  as mavros's setpoint_position sends it: frame GLOBAL_INT (altitude AMSL), type_mask position, yaw
+  and yaw rate (0x1F8, yaw rate 0), lat/lon as int32_t(deg * 1e7) (truncated toward zero), the yaw of
+  the orientation turned to NED/FRD as it is (not normalised: all zero is yaw 0, north).
+- ~setpoint_raw/target_global (GlobalPositionTarget) from POSITION_TARGET_GLOBAL_INT, as mavros
+  (velocities NED->ENU, yaw pi/2 - yaw, yaw rate negated). PX4 does not stream it: a silent topic
+  there, as with mavros.
 A setpoint with a NaN or infinite number in a field it uses is not sent, and is logged
 (at most a line per topic every 5 s); in a field its type_mask ignores, it is sent as 0.
 """
@@ -25,11 +32,12 @@ A setpoint with a NaN or infinite number in a field it uses is not sent, and is 
 import math
 
 import rospy
+from geographic_msgs.msg import GeoPoseStamped
 from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
 from mavros_msgs.msg import AttitudeTarget, GlobalPositionTarget, PositionTarget
 
 from offboard_py import frames
-from offboard_py.bridge import typemask
+from offboard_py.bridge import c_casts, typemask
 from offboard_py.dialect import mavlink
 
 BODY_FRAMES = (PositionTarget.FRAME_BODY_NED, PositionTarget.FRAME_BODY_OFFSET_NED)
@@ -62,11 +70,14 @@ class Setpoint:
                               lambda msg: self._on_velocity('setpoint_velocity/cmd_vel_unstamped', bridge.now(), msg)),
         ]
         self.subs += [bridge.subscriber('~setpoint_raw/attitude', AttitudeTarget, self._on_raw_attitude),
-                      bridge.subscriber('~setpoint_raw/global', GlobalPositionTarget, self._on_raw_global)]
+                      bridge.subscriber('~setpoint_raw/global', GlobalPositionTarget, self._on_raw_global),
+                      bridge.subscriber('~setpoint_position/global', GeoPoseStamped, self._on_geo_pose)]
         self.target_pub = bridge.publisher('~setpoint_raw/target_local', PositionTarget)
         self.target_attitude_pub = bridge.publisher('~setpoint_raw/target_attitude', AttitudeTarget)
         bridge.on('POSITION_TARGET_LOCAL_NED', self._on_target, needed=bridge.listened(self.target_pub))
         bridge.on('ATTITUDE_TARGET', self._on_target_attitude, needed=bridge.listened(self.target_attitude_pub))
+        self.target_global_pub = bridge.publisher('~setpoint_raw/target_global', GlobalPositionTarget)
+        bridge.on('POSITION_TARGET_GLOBAL_INT', self._on_target_global, needed=bridge.listened(self.target_global_pub))
 
     def reject(self, topic, what):
         """Count and log; at most one line per topic every 5 s (rospy's throttle would merge topics)."""
@@ -185,6 +196,29 @@ class Setpoint:
             msg.altitude if math.isfinite(msg.altitude) else 0.0, *frames.enu_to_ned(v.x, v.y, v.z),
             *frames.enu_to_ned(a.x, a.y, a.z), frames.yaw_enu_to_ned(msg.yaw) if math.isfinite(msg.yaw) else 0.0,
             -msg.yaw_rate if math.isfinite(msg.yaw_rate) else 0.0))
+
+    def _on_geo_pose(self, msg):
+        p, q = msg.pose.position, msg.pose.orientation
+        if not _finite(p.latitude, p.longitude, p.altitude, q.x, q.y, q.z, q.w):
+            self.reject('setpoint_position/global', 'a NaN or infinite value')
+            return
+        yaw = frames.quaternion_yaw(frames.orientation_enu_to_ned((q.x, q.y, q.z, q.w)))
+        b = self.bridge
+        b.send(b.mav.set_position_target_global_int_encode(
+            _time_boot_ms(msg.header.stamp), b.target_system, b.target_component, mavlink.MAV_FRAME_GLOBAL_INT,
+            typemask.POSITION_YAW_YAW_RATE, c_casts.int32_from_double(p.latitude * 1e7),
+            c_casts.int32_from_double(p.longitude * 1e7), p.altitude, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, yaw, 0.0))
+
+    def _on_target_global(self, tgt):
+        msg = GlobalPositionTarget(coordinate_frame=tgt.coordinate_frame, type_mask=tgt.type_mask,
+                                   latitude=tgt.lat_int / 1e7, longitude=tgt.lon_int / 1e7, altitude=tgt.alt)
+        msg.header.stamp = self.bridge.fcu_stamp_ms(tgt.time_boot_ms)
+        msg.velocity.x, msg.velocity.y, msg.velocity.z = frames.ned_to_enu(tgt.vx, tgt.vy, tgt.vz)
+        a = msg.acceleration_or_force
+        a.x, a.y, a.z = frames.ned_to_enu(tgt.afx, tgt.afy, tgt.afz)
+        msg.yaw = frames.yaw_ned_to_enu(tgt.yaw) if math.isfinite(tgt.yaw) else tgt.yaw
+        msg.yaw_rate = -tgt.yaw_rate
+        self.target_global_pub.publish(msg)
 
     def _on_target_attitude(self, tgt):
         msg = AttitudeTarget(type_mask=tgt.type_mask, thrust=tgt.thrust)

@@ -14,6 +14,11 @@ POSITION_YAW = (mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE | mavlink.POSITION_TA
                 mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE |
                 mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
 
+# What mavros's setpoint_position/global sends: position, yaw and yaw rate used (0x1F8; the yaw rate it sends is 0).
+POSITION_YAW_YAW_RATE = (mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_VY_IGNORE |
+                         mavlink.POSITION_TARGET_TYPEMASK_VZ_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE |
+                         mavlink.POSITION_TARGET_TYPEMASK_AY_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AZ_IGNORE)
+
 # What mavros's setpoint_velocity sends: velocity and yaw rate used (0x5C7).
 VELOCITY_YAW_RATE = (mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE |
                      mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE |
