@@ -39,13 +39,19 @@ MODES = {
 }
 _BY_MAIN_SUB = {v: k for k, v in MODES.items()}
 
-# Modes a pilot flies with sticks: PX4 sets MANUAL_INPUT for them and they need RC.
-MANUAL_MODES = frozenset(('MANUAL', 'ALTCTL', 'POSCTL', 'ACRO', 'STABILIZED', 'RATTITUDE'))
+# Modes a pilot flies with sticks: PX4 sets MANUAL_INPUT for them and they need RC
+# (ModeUtil/mode_requirements.cpp: mode_req_manual_control).
+MANUAL_MODES = frozenset(('MANUAL', 'ALTCTL', 'POSCTL', 'ACRO', 'STABILIZED', 'RATTITUDE', 'POSCTL.SLOW',
+                          'ALTITUDE_CRUISE'))
 
 
 def encode(mode):
-    """custom_mode for a mode string; KeyError for an unknown one."""
-    return join(*MODES[mode])
+    """custom_mode for a mode string: mavros's names (MODES), then the modes PX4 lists in
+    AVAILABLE_MODES that mavros has no name for (POSCTL.SLOW, ALTITUDE_CRUISE, POSCTL.ORBIT,
+    TERMINATION, ...); KeyError for an unknown one."""
+    if mode in MODES:
+        return join(*MODES[mode])
+    return _CUSTOM_BY_LABEL[mode]
 
 
 def join(main_mode, sub_mode):
@@ -85,7 +91,7 @@ def base_mode_flags(mode, armed):
     elif mode.startswith('AUTO.'):
         flags |= (mavlink.MAV_MODE_FLAG_AUTO_ENABLED | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
                   | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED)
-    elif mode == 'OFFBOARD':
+    elif mode in ('OFFBOARD', 'POSCTL.ORBIT'):  # attitude controlled, neither stick nor navigator input
         flags |= mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
     return flags
 
@@ -135,6 +141,7 @@ AVAILABLE_MODES = (
     _mode('AUTO.EXTERNAL%d' % (n + 1), MAIN_AUTO, SUB_EXTERNAL1 + n, STANDARD_NON_STANDARD, NOT_USER_SELECTABLE,
           '(Mode not available)') for n in range(8))
 _STANDARD_BY_CUSTOM = {m.custom_mode: m.standard_mode for m in AVAILABLE_MODES}
+_CUSTOM_BY_LABEL = {m.label: m.custom_mode for m in AVAILABLE_MODES}
 
 
 def standard_mode(custom_mode):

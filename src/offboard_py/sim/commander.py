@@ -15,9 +15,11 @@ Rules, as current PX4 applies them (reference/px4-behaviour.md):
   CURRENT_MODE.intended_custom_mode) and the mode flying now (`nav_mode`), which differs
   during a failsafe. After a disarm the vehicle returns to the last mode the user chose
   that is not a landing or takeoff mode.
-- While disarmed every real mode is accepted, OFFBOARD too. While armed, OFFBOARD needs
-  the offboard signal, manual modes need RC, AUTO.MISSION needs a mission.
-  AUTO.READY, AUTO.RTGS, AUTO.FOLLOW_TARGET and AUTO.PRECLAND are refused.
+- While disarmed every mode PX4 has is accepted, OFFBOARD too (UserModeIntention::change). While
+  armed, OFFBOARD needs the offboard signal, manual modes need RC, AUTO.MISSION needs a mission.
+  DO_SET_MODE and SET_MODE name the mode as Commander::handle_command maps them (`set_mode_target`):
+  AUTO.READY, AUTO.RTGS, AUTO.VTOL_TAKEOFF and the old RATTITUDE are refused; nothing leaves
+  TERMINATION.
 - The offboard signal: an accepted setpoint younger than COM_OF_LOSS_T. Lost while armed
   in OFFBOARD: the failsafe. With RC, COM_OBL_RC_ACT applies; its RC-based choices
   (Position, Altitude, Stabilized) are unavailable without RC, and NAV_RCL_ACT applies
@@ -40,10 +42,22 @@ from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 
-REFUSED_MODES = frozenset(('AUTO.READY', 'AUTO.RTGS', 'AUTO.FOLLOW_TARGET', 'AUTO.PRECLAND'))
-# modes the vehicle leaves for the user's previous choice once it is disarmed
-TRANSIENT_MODES = frozenset(('AUTO.TAKEOFF', 'AUTO.LAND', 'AUTO.RTL', 'AUTO.PRECLAND'))
-NOT_ARMABLE = frozenset(('AUTO.LAND', 'AUTO.RTL'))
+# names mavros knows (px4_modes.MODES) for which PX4 main has no navigation state
+REFUSED_MODES = frozenset(('AUTO.READY', 'AUTO.RTGS', 'RATTITUDE'))
+# modes that prevent arming (ModeUtil/mode_requirements.cpp: mode_req_prevent_arming)
+NOT_ARMABLE = frozenset(('AUTO.LAND', 'AUTO.RTL', 'AUTO.FOLLOW_TARGET', 'AUTO.PRECLAND', 'TERMINATION'))
+# modes the vehicle leaves for the user's previous choice once it is disarmed: those that prevent
+# arming and the takeoff, TERMINATION excepted (UserModeIntention::change, _nav_state_after_disarming)
+TRANSIENT_MODES = (NOT_ARMABLE | {'AUTO.TAKEOFF'}) - {'TERMINATION'}
+# DO_SET_MODE's custom main modes (px4_custom_mode.h) as Commander::handle_command takes them; POSCTL
+# and AUTO have their own rules in set_mode_target
+_MAIN_MODES = {px4_modes.MAIN_MANUAL: 'MANUAL', px4_modes.MAIN_ALTCTL: 'ALTCTL',
+               px4_modes.MAIN_ALTITUDE_CRUISE: 'ALTITUDE_CRUISE', px4_modes.MAIN_ACRO: 'ACRO',
+               px4_modes.MAIN_STABILIZED: 'STABILIZED', px4_modes.MAIN_OFFBOARD: 'OFFBOARD'}
+_AUTO_SUB_MODES = {px4_modes.SUB_LOITER: 'AUTO.LOITER', px4_modes.SUB_MISSION: 'AUTO.MISSION',
+                   px4_modes.SUB_RTL: 'AUTO.RTL', px4_modes.SUB_TAKEOFF: 'AUTO.TAKEOFF',
+                   px4_modes.SUB_LAND: 'AUTO.LAND', px4_modes.SUB_FOLLOW_TARGET: 'AUTO.FOLLOW_TARGET',
+                   px4_modes.SUB_PRECLAND: 'AUTO.PRECLAND'}
 RC_MODES = frozenset(('POSCTL', 'ALTCTL', 'STABILIZED'))
 # COM_OBL_RC_ACT and NAV_RCL_ACT values (PX4's parameter documentation)
 OBL_ACTIONS = {0: 'POSCTL', 1: 'ALTCTL', 2: 'STABILIZED', 3: 'AUTO.RTL', 4: 'AUTO.LAND', 5: 'AUTO.LOITER',
@@ -63,6 +77,37 @@ DENIED = mavlink.MAV_RESULT_DENIED
 # (2.26, 3.78 and 4.0 s for the three cases).
 LOG_START_S = 0.3
 LOG_CLOSE_BASE_S, LOG_CLOSE_PER_S, LOG_CLOSE_MAX_S = 1.5, 1.2, 4.0
+
+
+def set_mode_target(base_mode, main_mode, sub_mode):
+    """(mode, None) for DO_SET_MODE's base_mode, custom main and sub mode (SET_MODE's too), or
+    (None, PX4's text) when PX4 has no such mode, as Commander::handle_command's DO_SET_MODE branch:
+    each field cast to a byte; POSCTL with sub mode 2 is Position Slow and with any other POSCTL
+    itself (ORBIT, 1, is not reached this way); AUTO with sub mode 0 is the mission, READY, RTGS,
+    VTOL_TAKEOFF (a multicopter) and unknown sub modes are refused, as are the main modes
+    RATTITUDE (8), SIMPLE (9), TERMINATION (10) and unknown ones. Without the custom mode flag, the
+    base mode's flags choose a mission, POSCTL, STABILIZED or MANUAL. The external modes (AUTO
+    11-18) are refused: none is registered here."""
+    base_mode, main_mode, sub_mode = int(base_mode) & 0xFF, int(main_mode) & 0xFF, int(sub_mode) & 0xFF
+    if not base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+        if base_mode & mavlink.MAV_MODE_FLAG_AUTO_ENABLED:
+            return 'AUTO.MISSION', None
+        if base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED:
+            if base_mode & mavlink.MAV_MODE_FLAG_GUIDED_ENABLED:
+                return 'POSCTL', None
+            if base_mode & mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED:
+                return 'STABILIZED', None
+            return 'MANUAL', None
+        return None, 'Unsupported base mode'
+    if main_mode == px4_modes.MAIN_POSCTL:
+        return ('POSCTL.SLOW' if sub_mode == px4_modes.SUB_POSCTL_SLOW else 'POSCTL'), None
+    if main_mode == px4_modes.MAIN_AUTO:
+        if sub_mode == 0:
+            return 'AUTO.MISSION', None
+        mode = _AUTO_SUB_MODES.get(sub_mode)
+        return (mode, None) if mode else (None, 'Unsupported auto mode')
+    mode = _MAIN_MODES.get(main_mode)
+    return (mode, None) if mode else (None, 'Unsupported main mode')
 
 
 def log_close_s(logged_s):
@@ -138,6 +183,8 @@ class Commander:
         if mode is None or mode in REFUSED_MODES:
             self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Switching to %s is not supported' % (mode or 'an unknown mode'))
             return TEMPORARILY_REJECTED
+        if self.nav_mode == 'TERMINATION':  # UserModeIntention::change: never out of termination
+            return TEMPORARILY_REJECTED
         if mode == self.nav_mode and not self.failsafe:
             return ACCEPTED
         if self.armed:
@@ -155,20 +202,11 @@ class Commander:
         return ACCEPTED
 
     def request_base_mode(self, base_mode, main_mode, sub_mode, now_s):
-        """DO_SET_MODE / SET_MODE fields -> request_mode."""
-        if base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            mode = px4_modes.decode(px4_modes.join(main_mode, sub_mode))
-        elif base_mode & mavlink.MAV_MODE_FLAG_AUTO_ENABLED:
-            mode = 'AUTO.MISSION'
-        elif base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED:
-            if base_mode & mavlink.MAV_MODE_FLAG_GUIDED_ENABLED:
-                mode = 'POSCTL'
-            elif base_mode & mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED:
-                mode = 'STABILIZED'
-            else:
-                mode = 'MANUAL'
-        else:
-            mode = None
+        """DO_SET_MODE / SET_MODE fields (set_mode_target) -> request_mode."""
+        mode, unsupported = set_mode_target(base_mode, main_mode, sub_mode)
+        if unsupported:
+            self._say(mavlink.MAV_SEVERITY_CRITICAL, unsupported)
+            return TEMPORARILY_REJECTED
         return self.request_mode(mode, now_s)
 
     def takeoff_complete(self):

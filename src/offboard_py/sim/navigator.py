@@ -257,8 +257,10 @@ class Navigator:
         self.loiter = Loiter(self)
         self.takeoff = Takeoff(self)
         self.rtl = Rtl(self)
-        self.modes = {'AUTO.LOITER': self.loiter, 'AUTO.TAKEOFF': self.takeoff, 'AUTO.LAND': Land(self),
-                      'AUTO.RTL': self.rtl, 'AUTO.MISSION': Mission(self)}
+        land = Land(self)
+        # AUTO.PRECLAND with no landing target in sight lands where it is, as PX4's precland falls back
+        self.modes = {'AUTO.LOITER': self.loiter, 'AUTO.TAKEOFF': self.takeoff, 'AUTO.LAND': land,
+                      'AUTO.PRECLAND': land, 'AUTO.RTL': self.rtl, 'AUTO.MISSION': Mission(self)}
         self.hold = NavigatorMode(self)  # the modes without a setpoint of their own
         self.active = self.hold
         self._idle_sent = False  # the return's idle item went out for this landing
@@ -288,7 +290,7 @@ class Navigator:
         self.hold_point = (v.position[0], v.position[1], min(v.position[2], v.ground_z))
         self.hold_yaw = v.yaw
         self.flyer.direct(None)
-        if mode in ('AUTO.LAND', 'AUTO.RTL'):
+        if mode in ('AUTO.LAND', 'AUTO.PRECLAND', 'AUTO.RTL'):
             self._gimbal_neutral()
             self._idle_sent = False
         new = self.modes.get(mode, self.hold)

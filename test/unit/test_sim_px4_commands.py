@@ -1,0 +1,102 @@
+"""Commands the simulated PX4 answers as PX4 main 02e73e3b6f answers them, offline, on the rig of
+test_sim_px4_rules (the simulator on a manual clock, the test's UDP socket on its onboard link):
+
+- DO_SET_MODE and SET_MODE as Commander::handle_command maps base_mode and the custom main/sub mode;
+"""
+
+import pytest
+
+from offboard_py import px4_modes
+from offboard_py.dialect import mavlink
+
+from test_sim_px4_rules import Rig
+
+ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
+TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
+CUSTOM = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+ARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM
+
+
+@pytest.fixture
+def rig():
+    r = Rig()
+    yield r
+    r.close()
+
+
+def command_long(rig, command, *params):
+    params = tuple(params) + (0.0,) * (7 - len(params))
+    rig.send(rig.codec.command_long_encode(rig.ap.system_id, 1, command, 0, *params))
+    rig.run(0.02)
+
+
+def set_mode(rig, main_mode, sub_mode=0, base_mode=CUSTOM):
+    """SET_MODE; the commander's one COMMAND_ACK(DO_SET_MODE) result."""
+    start = len(rig.got)
+    rig.send(rig.codec.set_mode_encode(rig.ap.system_id, base_mode, px4_modes.join(main_mode, sub_mode)))
+    rig.run(0.02)
+    results = rig.acks(mavlink.MAV_CMD_DO_SET_MODE, start)
+    assert len(results) == 1, 'one COMMAND_ACK(DO_SET_MODE) for a SET_MODE: %s' % results
+    return results[0]
+
+
+def custom_mode(rig):
+    """HEARTBEAT.custom_mode as the next heartbeat says it."""
+    start = len(rig.got)
+    rig.run(1.05)
+    return rig.of('HEARTBEAT', start)[-1].custom_mode
+
+
+def arm(rig, param1, param2=0.0):
+    start = len(rig.got)
+    command_long(rig, ARM, param1, param2)
+    return rig.acks(ARM, start)
+
+
+@pytest.mark.parametrize('main_mode, sub_mode, expected', [
+    (px4_modes.MAIN_ALTITUDE_CRUISE, 0, 0x000B0000),                # main 11: Altitude Cruise
+    (px4_modes.MAIN_POSCTL, px4_modes.SUB_POSCTL_SLOW, 0x02030000),  # Position Slow keeps its sub mode
+    (px4_modes.MAIN_POSCTL, px4_modes.SUB_POSCTL_ORBIT, 0x00030000),  # any other POSCTL sub mode: POSCTL
+    (px4_modes.MAIN_AUTO, px4_modes.SUB_FOLLOW_TARGET, 0x08040000),
+    (px4_modes.MAIN_AUTO, px4_modes.SUB_PRECLAND, 0x09040000),
+    (px4_modes.MAIN_AUTO, 0, 0x04040000),                           # AUTO alone: the mission
+])
+def test_set_mode_takes_every_mode_px4_maps_while_disarmed(rig, main_mode, sub_mode, expected):
+    """Commander::handle_command (DO_SET_MODE) maps these to a navigation state and
+    UserModeIntention::change allows any while disarmed; HEARTBEAT carries get_px4_custom_mode's value."""
+    assert set_mode(rig, main_mode, sub_mode) == ACCEPTED
+    assert custom_mode(rig) == expected
+
+
+@pytest.mark.parametrize('main_mode, sub_mode', [
+    (px4_modes.MAIN_RATTITUDE, 0),             # PX4_CUSTOM_MAIN_MODE_RATTITUDE_LEGACY: no longer a mode
+    (9, 0),                                    # SIMPLE: reserved
+    (px4_modes.MAIN_TERMINATION, 0),           # only DO_FLIGHTTERMINATION terminates
+    (12, 0),
+    (px4_modes.MAIN_AUTO, px4_modes.SUB_READY),
+    (px4_modes.MAIN_AUTO, px4_modes.SUB_RTGS),
+    (px4_modes.MAIN_AUTO, px4_modes.SUB_VTOL_TAKEOFF),  # a multicopter
+])
+def test_set_mode_refuses_what_px4_has_no_mode_for(rig, main_mode, sub_mode):
+    """'Unsupported main mode' / 'Unsupported auto mode': TRANSITION_DENIED, TEMPORARILY_REJECTED."""
+    before = custom_mode(rig)
+    assert set_mode(rig, main_mode, sub_mode) == TEMPORARILY_REJECTED
+    assert custom_mode(rig) == before == px4_modes.encode('AUTO.LOITER')
+
+
+def test_do_set_mode_casts_its_float_fields_to_bytes(rig):
+    """COMMAND_LONG DO_SET_MODE: (uint8_t)param1..3, so 3.9 is POSCTL and sub mode 2.7 Position Slow;
+    the MAVLink module's own ACCEPTED comes first, then the commander's."""
+    start = len(rig.got)
+    command_long(rig, mavlink.MAV_CMD_DO_SET_MODE, CUSTOM + 0.5, 3.9, 2.7)
+    assert rig.acks(mavlink.MAV_CMD_DO_SET_MODE, start) == [ACCEPTED, ACCEPTED]
+    assert custom_mode(rig) == 0x02030000
+
+
+def test_follow_target_and_precland_are_taken_but_prevent_arming(rig):
+    """Both prevent arming (mode_requirements.cpp: mode_req_prevent_arming), as AUTO.LAND does."""
+    for sub_mode in (px4_modes.SUB_FOLLOW_TARGET, px4_modes.SUB_PRECLAND):
+        assert set_mode(rig, px4_modes.MAIN_AUTO, sub_mode) == ACCEPTED
+        assert arm(rig, 1.0) == [TEMPORARILY_REJECTED]
+        assert not rig.ap.status().armed
