@@ -51,9 +51,9 @@ def hostile_frames(rng, count, target):
         v2.set_mode_encode(target, CUSTOM, px4_modes.join(99, 0)),                      # no such main mode
         v2.set_mode_encode(target, CUSTOM, px4_modes.join(auto, 77)),                   # no such sub mode
         v2.command_long_encode(target, 1, SET_MODE, 0, CUSTOM, auto, ready, 0, 0, 0, 0),  # AUTO.READY: refused
-        v2.command_long_encode(target, 1, ARM, 0, 0.5, 0, 0, 0, 0, 0, 0),               # arm with param1 0.5
+        v2.command_long_encode(target, 1, ARM, 0, 2.0, 0, 0, 0, 0, 0, 0),               # arm action 2: UNSUPPORTED
         v2.command_long_encode(target, 1, SET_MODE, 0, nan, nan, nan, 0, 0, 0, 0),      # NaN mode
-        v2.command_long_encode(target, 1, ARM, 0, nan, 0, 0, 0, 0, 0, 0),               # NaN arm
+        v2.command_long_encode(target, 1, ARM, 0, nan, 0, 0, 0, 0, 0, 0),               # NaN: PX4 disarms (lroundf)
         v2.param_set_encode(target, 1, b'MIS_TAKEOFF_ALT', nan, REAL32),                # NaN float parameter
         v2.param_set_encode(target, 1, b'COM_OBL_RC_ACT', nan, INT32),                  # NaN int parameter
         v2.param_set_encode(target, 1, b'COM_OF_LOSS_T', 1e9, REAL32),                  # out of range

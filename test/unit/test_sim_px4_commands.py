@@ -2,6 +2,7 @@
 test_sim_px4_rules (the simulator on a manual clock, the test's UDP socket on its onboard link):
 
 - DO_SET_MODE and SET_MODE as Commander::handle_command maps base_mode and the custom main/sub mode;
+- COMPONENT_ARM_DISARM's param1 read with lroundf (Commander::handle_command).
 """
 
 import pytest
@@ -100,3 +101,24 @@ def test_follow_target_and_precland_are_taken_but_prevent_arming(rig):
         assert set_mode(rig, px4_modes.MAIN_AUTO, sub_mode) == ACCEPTED
         assert arm(rig, 1.0) == [TEMPORARILY_REJECTED]
         assert not rig.ap.status().armed
+@pytest.mark.parametrize('param1, armed', [(0.6, True), (0.5, True), (1.4, True), (1.0, True),
+                                           (0.4, False), (-0.4, False)])
+def test_arm_disarm_reads_param1_rounded(rig, param1, armed):
+    """const int8_t arming_action = lroundf(param1): 0.5 and 0.6 arm, 0.4 and -0.4 are a disarm
+    (ACCEPTED: already disarmed)."""
+    assert arm(rig, param1) == [ACCEPTED]
+    assert rig.ap.status().armed == armed
+
+
+@pytest.mark.parametrize('param1', [2.0, 1.5, -1.0, -0.6])
+def test_arm_disarm_with_another_action_is_unsupported(rig, param1):
+    """lroundf(param1) neither 0 nor 1: 'Unsupported ARM_DISARM param', and the result stays UNSUPPORTED."""
+    assert arm(rig, param1) == [UNSUPPORTED]
+    assert not rig.ap.status().armed
+
+
+def test_arm_disarm_nan_is_a_disarm_as_on_x86_64(rig):
+    """lroundf(NaN) is LONG_MIN on PX4 SITL's x86-64, and its int8_t cast 0: a disarm, not a refusal."""
+    assert arm(rig, 1.0) == [ACCEPTED]
+    assert arm(rig, float('nan')) == [ACCEPTED]
+    assert not rig.ap.status().armed

@@ -71,6 +71,17 @@ REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_I
                         mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION: mavlink.MAVLINK_MSG_ID_PROTOCOL_VERSION}
 
 
+def lroundf_int8(value, bits=8):
+    """static_cast<int8_t>(lroundf(value)) as PX4 SITL computes it on x86-64 (`bits` 32: the int cast):
+    halves round away from zero; NaN, infinities and values past a long give LONG_MIN, whose low bits
+    are 0; the cast keeps the low `bits`, signed."""
+    if not math.isfinite(value) or abs(value) >= 2.0 ** 63:
+        return 0
+    n = int(math.floor(abs(value) + 0.5)) * (1 if value >= 0 else -1)
+    half = 1 << (bits - 1)
+    return (n + half) % (1 << bits) - half
+
+
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
                  param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, steps_per_wakeup=2, clock=None,
@@ -343,9 +354,14 @@ class SimulatedPx4:
         return self.flight.request_base_mode(int(msg.param1), msg.param2, msg.param3, now)
 
     def _cmd_arm_disarm(self, msg, now):
-        if msg.param1 not in (0.0, 1.0):
-            return DENIED
-        return self.flight.request_arming(msg.param1 == 1.0, msg.param2 == ARM_DISARM_FORCE_MAGIC, now)
+        """Commander::handle_command reads param1 and param2 with lroundf (halves away from zero): 0.5
+        arms, 0.4 disarms; any other action is 'Unsupported ARM_DISARM param' and the result stays
+        UNSUPPORTED. The force magic is lroundf(param2) == 21196."""
+        action = lroundf_int8(msg.param1)
+        if action not in (0, 1):
+            return UNSUPPORTED
+        return self.flight.request_arming(action == 1, lroundf_int8(msg.param2, bits=32) == ARM_DISARM_FORCE_MAGIC,
+                                          now)
 
     def _cmd_takeoff(self, msg, now):
         altitude = msg.z if msg.get_type() == 'COMMAND_INT' else msg.param7
