@@ -34,6 +34,8 @@ PYMAVLINK_TESTED = '2.4.49'
 
 # Short names for what the simulated PX4 and its tests inject (common.xml, MAV_CMD_INJECT_FAILURE)
 MAV_CMD_INJECT_FAILURE = mavlink.MAV_CMD_INJECT_FAILURE
+# MAV_CMD_DO_ORBIT (common.xml, 34) is missing from the generated dialect (marked work in progress there)
+MAV_CMD_DO_ORBIT = getattr(mavlink, 'MAV_CMD_DO_ORBIT', 34)
 FAILURE_UNIT_SENSOR_GYRO = mavlink.FAILURE_UNIT_SENSOR_GYRO  # param1
 FAILURE_TYPE_OK = mavlink.FAILURE_TYPE_OK                    # param2: no failure
 FAILURE_TYPE_OFF = mavlink.FAILURE_TYPE_OFF                  # param2: the unit is off

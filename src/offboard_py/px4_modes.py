@@ -142,8 +142,17 @@ AVAILABLE_MODES = (
           '(Mode not available)') for n in range(8))
 _STANDARD_BY_CUSTOM = {m.custom_mode: m.standard_mode for m in AVAILABLE_MODES}
 _CUSTOM_BY_LABEL = {m.label: m.custom_mode for m in AVAILABLE_MODES}
+# For a multicopter the modes PX4 lists with a standard mode are exactly those that
+# mode_util::getNavStateFromStandardMode (src/lib/modes/standard_modes.hpp) gives for one
+_LABEL_BY_STANDARD = {m.standard_mode: m.label for m in AVAILABLE_MODES if m.standard_mode != STANDARD_NON_STANDARD}
 
 
 def standard_mode(custom_mode):
     """CURRENT_MODE.standard_mode of a PX4 custom_mode (0, non-standard, for one PX4 does not list)."""
     return _STANDARD_BY_CUSTOM.get(custom_mode, STANDARD_NON_STANDARD)
+
+
+def mode_of_standard(standard):
+    """Our label for a MAV_STANDARD_MODE (PX4's numbering), as DO_SET_STANDARD_MODE maps it for a
+    multicopter; None for NON_STANDARD, CRUISE (fixed wing only) and unknown numbers."""
+    return _LABEL_BY_STANDARD.get(standard)

@@ -8,7 +8,7 @@ test_sim_px4_rules (the simulator on a manual clock, the test's UDP socket on it
 import pytest
 
 from offboard_py import px4_modes
-from offboard_py.dialect import mavlink
+from offboard_py.dialect import MAV_CMD_DO_ORBIT, mavlink
 
 from test_sim_px4_rules import Rig
 
@@ -122,3 +122,73 @@ def test_arm_disarm_nan_is_a_disarm_as_on_x86_64(rig):
     assert arm(rig, 1.0) == [ACCEPTED]
     assert arm(rig, float('nan')) == [ACCEPTED]
     assert not rig.ap.status().armed
+
+
+def command_result(rig, command, *params):
+    start = len(rig.got)
+    command_long(rig, command, *params)
+    results = rig.acks(command, start)
+    assert len(results) == 1, 'one COMMAND_ACK(%d): %s' % (command, results)
+    return results[0]
+
+
+@pytest.mark.parametrize('standard, expected', [(1, 'POSCTL'), (2, 'POSCTL.ORBIT'), (4, 'ALTCTL'), (5, 'AUTO.RTL'),
+                                                (6, 'AUTO.MISSION'), (7, 'AUTO.LAND'), (8, 'AUTO.TAKEOFF')])
+def test_set_standard_mode_selects_the_mode_px4_maps_it_to(rig, standard, expected):
+    """DO_SET_STANDARD_MODE: getNavStateFromStandardMode (standard_modes.hpp) for a multicopter, then the
+    mode change (any while disarmed); the simulator lists these standard modes in AVAILABLE_MODES."""
+    assert command_result(rig, mavlink.MAV_CMD_DO_SET_STANDARD_MODE, standard + 0.3) == ACCEPTED
+    assert custom_mode(rig) == px4_modes.encode(expected)
+
+
+@pytest.mark.parametrize('standard', [0, 3, 9, float('nan')])
+def test_set_standard_mode_without_a_multicopter_mode_fails(rig, standard):
+    """NON_STANDARD, CRUISE (fixed wing only) and unknown numbers: NAVIGATION_STATE_MAX, FAILED."""
+    assert command_result(rig, mavlink.MAV_CMD_DO_SET_STANDARD_MODE, standard) == mavlink.MAV_RESULT_FAILED
+
+
+def test_run_prearm_checks_is_accepted(rig):
+    assert command_result(rig, mavlink.MAV_CMD_RUN_PREARM_CHECKS) == ACCEPTED
+
+
+def test_orbit_selects_the_orbit_mode(rig):
+    """DO_ORBIT on a multicopter: NAVIGATION_STATE_ORBIT, custom_mode POSCTL sub mode ORBIT (0x01030000)."""
+    assert command_result(rig, MAV_CMD_DO_ORBIT, 10.0) == ACCEPTED
+    assert custom_mode(rig) == 0x01030000
+
+
+def test_flight_termination_denied_disarmed_then_terminates_armed_for_good(rig):
+    """DENIED with param1 <= 0.5 or disarmed; armed, TERMINATION (0x000A0000), motors off, and no mode
+    change out of it (UserModeIntention::change)."""
+    assert command_result(rig, mavlink.MAV_CMD_DO_FLIGHTTERMINATION, 1.0) == mavlink.MAV_RESULT_DENIED
+    assert arm(rig, 1.0) == [ACCEPTED]
+    assert command_result(rig, mavlink.MAV_CMD_DO_FLIGHTTERMINATION, 0.5) == mavlink.MAV_RESULT_DENIED
+    assert command_result(rig, mavlink.MAV_CMD_DO_FLIGHTTERMINATION, 1.0) == ACCEPTED
+    assert custom_mode(rig) == 0x000A0000
+    assert not rig.ap.flight.vehicle.motors_on
+    assert set_mode(rig, px4_modes.MAIN_AUTO, px4_modes.SUB_LOITER) == TEMPORARILY_REJECTED
+
+
+def test_set_home_here_or_at_a_given_position(rig):
+    """DO_SET_HOME (COM_HOME_EN 1): param1 1 the current position; param1 0 the latitude, longitude
+    and altitude given, DENIED unless all three are finite."""
+    lat0, lon0, alt0 = rig.ap.frame.lat0, rig.ap.frame.lon0, rig.ap.frame.alt0
+    assert command_result(rig, mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat0, lon0, float('nan')) == \
+        mavlink.MAV_RESULT_DENIED
+    assert command_result(rig, mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat0 + 1e-4, lon0, alt0 + 10) == ACCEPTED
+    north, east, down = rig.ap.flight.home
+    assert north == pytest.approx(11.1, abs=0.1) and east == pytest.approx(0, abs=0.1) and down == pytest.approx(-10)
+    assert command_result(rig, mavlink.MAV_CMD_DO_SET_HOME, 1) == ACCEPTED
+    assert rig.ap.flight.home[0] == pytest.approx(0.0, abs=1.0)
+
+
+def test_change_altitude_loiters_and_climbs_to_it_when_armed(rig):
+    """DO_CHANGE_ALTITUDE: AUTO.LOITER (Commander::handle_command) and, armed, a reposition to param1
+    AMSL above where the vehicle is (navigator_main.cpp)."""
+    assert arm(rig, 1.0) == [ACCEPTED]
+    target_amsl = rig.ap.frame.alt0 + 5.0
+    assert command_result(rig, mavlink.MAV_CMD_DO_CHANGE_ALTITUDE, target_amsl) == ACCEPTED
+    rig.run(8.0)
+    st = rig.ap.status()
+    assert st.nav_mode == 'AUTO.LOITER' and st.armed
+    assert -rig.ap.flight.vehicle.position[2] == pytest.approx(5.0, abs=0.5), rig.ap.flight.vehicle.position

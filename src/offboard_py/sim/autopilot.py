@@ -20,7 +20,7 @@ import math
 import struct
 
 from offboard_py import param_codec, px4_modes, sitl_ports
-from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_INJECT_FAILURE, mavlink
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_DO_ORBIT, MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.mavlink_link import MavlinkLink
 from offboard_py.sim import loop
 from offboard_py.simtime import SimClock
@@ -159,6 +159,12 @@ class SimulatedPx4:
             mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda msg, now: self.flight.request_mode('AUTO.RTL', now),
             mavlink.MAV_CMD_MISSION_START: self._cmd_mission_start,
             mavlink.MAV_CMD_DO_REPOSITION: self._cmd_reposition,
+            mavlink.MAV_CMD_DO_CHANGE_ALTITUDE: self._cmd_change_altitude,
+            mavlink.MAV_CMD_DO_SET_STANDARD_MODE: self._cmd_set_standard_mode,
+            MAV_CMD_DO_ORBIT: lambda msg, now: self.flight.request_mode('POSCTL.ORBIT', now),
+            mavlink.MAV_CMD_DO_FLIGHTTERMINATION: self._cmd_flight_termination,
+            mavlink.MAV_CMD_DO_SET_HOME: self._cmd_set_home,
+            mavlink.MAV_CMD_RUN_PREARM_CHECKS: lambda msg, now: ACCEPTED,
             mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: self._cmd_set_message_interval,
             mavlink.MAV_CMD_GET_MESSAGE_INTERVAL: self._cmd_get_message_interval,
             mavlink.MAV_CMD_REQUEST_MESSAGE: self._cmd_request_message,
@@ -387,6 +393,42 @@ class SimulatedPx4:
             down = self.frame.alt0 - alt
         speed = msg.param1 if math.isfinite(msg.param1) and msg.param1 > 0 else None
         return self.flight.reposition((north, east, down), speed, msg.param4, now)
+
+    def _cmd_change_altitude(self, msg, now):
+        """DO_CHANGE_ALTITUDE: AUTO.LOITER (Commander::handle_command), and to PX4's navigator a
+        DO_REPOSITION with only the altitude: param1 AMSL (NaN: as now), kept only while armed
+        (navigator_main.cpp)."""
+        north, east, down = self.flight.vehicle.position
+        if math.isfinite(msg.param1):
+            down = self.frame.alt0 - msg.param1
+        return self.flight.reposition((north, east, down), None, math.nan, now)
+
+    def _cmd_set_standard_mode(self, msg, now):
+        """DO_SET_STANDARD_MODE: roundf(param1) through mode_util::getNavStateFromStandardMode; a
+        standard mode a multicopter has no mode for is FAILED, the mode change's answer otherwise."""
+        mode = px4_modes.mode_of_standard(int(round(msg.param1))) if math.isfinite(msg.param1) else None
+        if mode is None:
+            return FAILED
+        return self.flight.request_mode(mode, now)
+
+    def _cmd_flight_termination(self, msg, now):
+        """Commander::handle_command: DENIED unless param1 > 0.5 and armed."""
+        return self.flight.terminate(now) if msg.param1 > 0.5 else DENIED
+
+    def _cmd_set_home(self, msg, now):
+        """Commander::handle_command with COM_HOME_EN: param1 > 0.5 the current position; else the
+        latitude, longitude and altitude AMSL given (DENIED unless all are finite). COM_HOME_EN 0: DENIED."""
+        if not self.params['COM_HOME_EN']:
+            return DENIED
+        if msg.param1 > 0.5:
+            return self.flight.set_home(None, now)
+        if msg.get_type() == 'COMMAND_INT':
+            lat, lon, alt = ((math.nan, math.nan) if msg.x == msg.y == 0x7FFFFFFF else (msg.x / 1e7, msg.y / 1e7)) + (msg.z,)
+        else:
+            lat, lon, alt = msg.param5, msg.param6, msg.param7
+        if not all(map(math.isfinite, (lat, lon, alt))):
+            return DENIED
+        return self.flight.set_home(self.frame.to_local(lat, lon, alt), now)
 
     def _cmd_mission_start(self, msg, now):
         first = int(msg.param1) if math.isfinite(msg.param1) and msg.param1 >= 0 else 0

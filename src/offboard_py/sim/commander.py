@@ -209,6 +209,13 @@ class Commander:
             return TEMPORARILY_REJECTED
         return self.request_mode(mode, now_s)
 
+    def terminate(self, now_s):
+        """DO_FLIGHTTERMINATION with param1 > 0.5 (Commander::handle_command): DENIED while disarmed,
+        else TERMINATION, the motors off, and no way out of it."""
+        if not self.armed:
+            return DENIED
+        return self.request_mode('TERMINATION', now_s)
+
     def takeoff_complete(self):
         """The navigator reached the takeoff altitude: loiter there, as PX4 does."""
         self._say(mavlink.MAV_SEVERITY_INFO, 'Takeoff complete')

@@ -154,6 +154,21 @@ class Flight:
             self.navigator.set_reposition(target, speed, yaw, self.commander.armed)
         return self._routed(result, now_s)
 
+    def terminate(self, now_s):
+        return self._routed(self.commander.terminate(now_s), now_s)
+
+    def set_home(self, home, now_s):
+        """MAV_CMD_DO_SET_HOME: `home` local NED, or None for where the vehicle is (HomePosition's
+        setHomePosition, which needs a position estimate: TEMPORARILY_REJECTED before)."""
+        if not self.commander.ready(now_s):
+            return mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+        if home is None:
+            self._set_home()
+        else:
+            self.home = tuple(home)
+            self.navigator.home = self.home
+        return mavlink.MAV_RESULT_ACCEPTED
+
     def start_mission(self, first_seq, now_s):
         """MAV_CMD_MISSION_START: from item first_seq (0 if out of range) in AUTO.MISSION."""
         if not self.navigator.mission.items:
@@ -208,6 +223,8 @@ class Flight:
             event = source.pop(0)
             if isinstance(event, ev.ModeChanged):
                 n.on_mode(event.mode)
+                if event.mode == 'TERMINATION':  # PX4 sets the actuators to their failsafe: motors off
+                    self.vehicle.stop_motors()
             elif isinstance(event, ev.ArmingChanged):
                 if event.armed:
                     self._set_home()  # PX4 sets home again at arming
