@@ -2,7 +2,10 @@
 test_sim_px4_rules (the simulator on a manual clock, the test's UDP socket on its onboard link):
 
 - DO_SET_MODE and SET_MODE as Commander::handle_command maps base_mode and the custom main/sub mode;
-- COMPONENT_ARM_DISARM's param1 read with lroundf (Commander::handle_command).
+- COMPONENT_ARM_DISARM's param1 read with lroundf (Commander::handle_command);
+- the commands PX4's commander handles beyond the basics (DO_SET_STANDARD_MODE, RUN_PREARM_CHECKS, DO_ORBIT,
+  DO_FLIGHTTERMINATION, DO_SET_HOME, DO_CHANGE_ALTITUDE);
+- PING requests echoed and commands from the autopilot's own ids dropped, as mavlink_receiver.cpp.
 """
 
 import pytest
@@ -10,7 +13,7 @@ import pytest
 from offboard_py import px4_modes
 from offboard_py.dialect import MAV_CMD_DO_ORBIT, mavlink
 
-from test_sim_px4_rules import Rig
+from test_sim_px4_rules import CLIENT, Rig
 
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
@@ -192,3 +195,34 @@ def test_change_altitude_loiters_and_climbs_to_it_when_armed(rig):
     st = rig.ap.status()
     assert st.nav_mode == 'AUTO.LOITER' and st.armed
     assert -rig.ap.flight.vehicle.position[2] == pytest.approx(5.0, abs=0.5), rig.ap.flight.vehicle.position
+
+
+def test_ping_request_is_echoed_to_its_sender(rig):
+    """MavlinkReceiver::handle_message_ping: target 0/0 is a request, sent back with the sender as target;
+    a PING with a target is someone's answer and gets none."""
+    rig.send(rig.codec.ping_encode(123456, 7, 0, 0))
+    rig.send(rig.codec.ping_encode(654321, 8, 42, 1))
+    rig.run(0.02)
+    # the PING stream's own requests (target 0/0) aside
+    pings = [(m.time_usec, m.seq, m.target_system, m.target_component) for m in rig.of('PING') if m.target_system]
+    assert pings == [(123456, 7) + CLIENT], pings
+
+
+def test_command_from_the_autopilots_own_ids_is_ignored_unless_the_receiver_handles_it(rig):
+    """handle_message_command_both: a command for the commander from the autopilot's own system and
+    component is dropped without an ACK; REQUEST_MESSAGE and DO_SET_MODE are handled before that check."""
+    def send_as(component, msg):
+        codec = mavlink.MAVLink(None, srcSystem=rig.ap.system_id, srcComponent=component)
+        rig.ap.link.handle_datagram(bytes(msg.pack(codec)), rig.sock.getsockname())
+
+    start = len(rig.got)
+    send_as(1, rig.codec.command_long_encode(rig.ap.system_id, 1, ARM, 0, 1, 0, 0, 0, 0, 0, 0))
+    send_as(1, rig.codec.command_long_encode(rig.ap.system_id, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                             mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0))
+    rig.run(0.02)
+    assert rig.acks(ARM, start) == [] and not rig.ap.status().armed, 'the spoofed arm is ignored'
+    assert rig.acks(mavlink.MAV_CMD_REQUEST_MESSAGE, start) == [ACCEPTED]
+    send_as(mavlink.MAV_COMP_ID_ONBOARD_COMPUTER, rig.codec.command_long_encode(rig.ap.system_id, 1, ARM, 0, 1, 0, 0,
+                                                                                0, 0, 0, 0))
+    rig.run(0.02)
+    assert rig.acks(ARM, start) == [ACCEPTED], 'the same system, another component: taken'

@@ -81,6 +81,15 @@ def lroundf_int8(value, bits=8):
     half = 1 << (bits - 1)
     return (n + half) % (1 << bits) - half
 
+# Commands mavlink_receiver.cpp answers itself or passes on before its own-id check
+# (handle_message_command_both): these are taken even from a sender with the autopilot's ids
+RECEIVER_COMMANDS = frozenset((
+    mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION,
+    mavlink.MAV_CMD_GET_HOME_POSITION, mavlink.MAV_CMD_REQUEST_FLIGHT_INFORMATION,
+    mavlink.MAV_CMD_REQUEST_STORAGE_INFORMATION, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL,
+    mavlink.MAV_CMD_GET_MESSAGE_INTERVAL, mavlink.MAV_CMD_REQUEST_MESSAGE, MAV_CMD_INJECT_FAILURE,
+    mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_CMD_DO_AUTOTUNE_ENABLE))
+
 
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
@@ -222,6 +231,7 @@ class SimulatedPx4:
         on('MISSION_REQUEST', self._mission(lambda m, t: self.transfer.on_request(m, t)))
         on('MISSION_ACK', self._mission(lambda m, t: self.transfer.on_ack(m, t)))
         on('TIMESYNC', self._on_timesync)
+        on('PING', self._on_ping)
 
     def _control(self, msg_type, handler):
         """`handler` for the allowed systems only."""
@@ -342,6 +352,12 @@ class SimulatedPx4:
             self._ack(msg, msg.command, refused)
             return
         if not self._for_me(msg):
+            return
+        if msg.command not in RECEIVER_COMMANDS and \
+                (msg.get_srcSystem(), msg.get_srcComponent()) == (self.system_id, 1):
+            # handle_message_command_both: a command for the commander from our own system and component
+            # is ignored, unanswered ("ignoring CMD with same SYS/COMP")
+            self.counters['ignored_own_id'] = self.counters.get('ignored_own_id', 0) + 1
             return
         if msg.command == mavlink.MAV_CMD_DO_SET_MODE:
             # PX4's MAVLink module acknowledges at once, then the commander gives its own result:
@@ -626,6 +642,12 @@ class SimulatedPx4:
         answers to our own requests (tc1 set) are taken silently."""
         if msg.tc1 == 0:
             self._reply(self.mav.timesync_encode(int(self.t() * 1e9), msg.ts1))
+
+    def _on_ping(self, msg):
+        """A PING request (target 0/0) goes back to its sender with the sender as target, as PX4's
+        MavlinkReceiver::handle_message_ping; a PING for anyone else is not a request."""
+        if msg.target_system == 0 and msg.target_component == 0:
+            self._reply(self.mav.ping_encode(msg.time_usec, msg.seq, msg.get_srcSystem(), msg.get_srcComponent()))
 
     def _set_current(self, seq):
         if self.flight.set_mission_current(seq):
