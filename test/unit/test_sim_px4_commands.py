@@ -226,3 +226,34 @@ def test_command_from_the_autopilots_own_ids_is_ignored_unless_the_receiver_hand
                                                                                 0, 0, 0, 0))
     rig.run(0.02)
     assert rig.acks(ARM, start) == [ACCEPTED], 'the same system, another component: taken'
+
+
+def message_interval(rig, *params, command=mavlink.MAV_CMD_SET_MESSAGE_INTERVAL):
+    start = len(rig.got)
+    command_long(rig, command, *params)
+    return rig.acks(command, start), rig.of('MESSAGE_INTERVAL', start)
+
+
+def test_set_message_interval_reads_its_parameters_as_px4s_receiver(rig):
+    """MavlinkReceiver::set_message_interval: the id is (int)(param1 + 0.5) (30.6 is ATTITUDE's 31,
+    ATTITUDE_QUATERNION); param3, param4 and param7 must round to 0 (FAILED otherwise); NaN asks for the
+    default rate, as 0 does."""
+    attitude, quaternion = mavlink.MAVLINK_MSG_ID_ATTITUDE, mavlink.MAVLINK_MSG_ID_ATTITUDE_QUATERNION
+    assert message_interval(rig, attitude, 100000, 0.4, -0.4)[0] == [ACCEPTED], 'params 3 and 4 round to 0'
+    for params in ((attitude, 100000, 1), (attitude, 100000, 0, 1), (attitude, 100000, 0, 0, 0, 0, 1)):
+        assert message_interval(rig, *params)[0] == [mavlink.MAV_RESULT_FAILED], params
+    assert message_interval(rig, quaternion - 0.4, 250000)[0] == [ACCEPTED]
+    _, answer = message_interval(rig, quaternion, command=mavlink.MAV_CMD_GET_MESSAGE_INTERVAL)
+    assert (answer[0].message_id, answer[0].interval_us) == (quaternion, 250000)
+    assert message_interval(rig, quaternion, float('nan'))[0] == [ACCEPTED]
+    _, answer = message_interval(rig, quaternion, command=mavlink.MAV_CMD_GET_MESSAGE_INTERVAL)
+    assert answer[0].interval_us == rig.ap.streams[rig.ap.links[0]].interval_us(quaternion) != 250000, \
+        'NaN: back to the default'
+
+
+def test_get_message_interval_of_a_stream_not_running_is_minus_one(rig):
+    """MavlinkReceiver::get_message_interval: -1 when no stream of that id runs on the link (PX4's
+    answer for an id it does not know too), with ACCEPTED."""
+    for msg_id in (9999, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION):
+        acks, answer = message_interval(rig, msg_id, command=mavlink.MAV_CMD_GET_MESSAGE_INTERVAL)
+        assert acks == [ACCEPTED] and (answer[0].message_id, answer[0].interval_us) == (msg_id, -1)

@@ -20,7 +20,8 @@ import math
 import struct
 
 from offboard_py import param_codec, px4_modes, sitl_ports
-from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_DO_ORBIT, MAV_CMD_INJECT_FAILURE, mavlink
+from offboard_py.dialect import (ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_DO_ORBIT, MAV_CMD_INJECT_FAILURE,
+                                 mavlink)
 from offboard_py.mavlink_link import MavlinkLink
 from offboard_py.sim import loop
 from offboard_py.simtime import SimClock
@@ -69,6 +70,14 @@ STATUSTEXT_STALE_S = 5.0
 REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION,
                         mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
                         mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION: mavlink.MAVLINK_MSG_ID_PROTOCOL_VERSION}
+
+
+def c_int_round(value):
+    """(int)(value + 0.5f) as PX4's receiver reads a message id from a float parameter; None where C
+    leaves it undefined (NaN, infinities, out of int's range)."""
+    if not math.isfinite(value) or abs(value) >= 2.0 ** 31:
+        return None
+    return int(value + 0.5)  # Python's int() truncates towards zero, as the C cast
 
 
 def lroundf_int8(value, bits=8):
@@ -439,7 +448,9 @@ class SimulatedPx4:
         if msg.param1 > 0.5:
             return self.flight.set_home(None, now)
         if msg.get_type() == 'COMMAND_INT':
-            lat, lon, alt = ((math.nan, math.nan) if msg.x == msg.y == 0x7FFFFFFF else (msg.x / 1e7, msg.y / 1e7)) + (msg.z,)
+            unset = msg.x == msg.y == 0x7FFFFFFF  # INT32_MAX: no position given
+            lat, lon = (math.nan, math.nan) if unset else (msg.x / 1e7, msg.y / 1e7)
+            alt = msg.z
         else:
             lat, lon, alt = msg.param5, msg.param6, msg.param7
         if not all(map(math.isfinite, (lat, lon, alt))):
@@ -451,16 +462,29 @@ class SimulatedPx4:
         return self.flight.start_mission(first, now)
 
     def _cmd_set_message_interval(self, msg, now):
-        """On the link the command came from, as PX4 (each MAVLink instance has its streams)."""
-        ok = math.isfinite(msg.param1) and math.isfinite(msg.param2) and \
-            self.streams[self.reply_link].set_interval(msg.param1, msg.param2, now)
+        """On the link the command came from, as PX4 (each MAVLink instance has its streams), with
+        MavlinkReceiver::set_message_interval's reading: the id is (int)(param1 + 0.5); param3, param4
+        and param7 (the response target) must round to 0; an interval within 1e-5 us of 0, or NaN,
+        is the stream's default, a negative one stops it."""
+        if not all(not math.isfinite(p) or int(p + 0.5) == 0 for p in (msg.param3, msg.param4, self._param7(msg))):
+            return FAILED
+        msg_id = c_int_round(msg.param1)
+        interval = msg.param2
+        if not math.isfinite(interval) or abs(interval) <= 1e-5:
+            interval = 0  # the default rate
+        ok = msg_id is not None and self.streams[self.reply_link].set_interval(msg_id, interval, now)
         return ACCEPTED if ok else FAILED
 
+    @staticmethod
+    def _param7(msg):
+        return msg.z if msg.get_type() == 'COMMAND_INT' else msg.param7
+
     def _cmd_get_message_interval(self, msg, now):
-        if not math.isfinite(msg.param1):
-            return DENIED
-        self._reply(self.mav.message_interval_encode(int(msg.param1) & 0xFFFF,
-                                                     self.streams[self.reply_link].interval_us(msg.param1)))
+        """MESSAGE_INTERVAL for (int)(param1 + 0.5): a stream not running on this link is -1, as PX4
+        (MavlinkReceiver::get_message_interval finds no stream of that id)."""
+        msg_id = c_int_round(msg.param1)
+        interval = -1 if msg_id is None else self.streams[self.reply_link].interval_us(msg_id)
+        self._reply(self.mav.message_interval_encode((msg_id or 0) & 0xFFFF, -1 if interval == 0 else interval))
         return ACCEPTED
 
     def _cmd_request_message(self, msg, now):
