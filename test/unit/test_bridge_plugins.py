@@ -112,6 +112,17 @@ def test_our_heartbeat_is_mavros_s_manual_armed_onboard_controller():
         mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 192, 0, mavlink.MAV_STATE_ACTIVE)
 
 
+@pytest.mark.parametrize('name, mav_type', [('GCS', mavlink.MAV_TYPE_GCS),
+                                             ('ONBOARD_CONTROLLER', mavlink.MAV_TYPE_ONBOARD_CONTROLLER),
+                                             ('gcs', mavlink.MAV_TYPE_GENERIC), ('NO_SUCH_TYPE', mavlink.MAV_TYPE_GENERIC)])
+def test_heartbeat_mav_type_names_the_type_as_mavros(name, mav_type):
+    """mavros's conn/heartbeat_mav_type (mav_type_from_str: the exact MAV_TYPE name, GENERIC otherwise).
+    GCS is how a ROS user hears PX4's texts: PX4 sends STATUSTEXT only where a GCS heartbeat is heard."""
+    rig = Rig(sys_status.SysStatus, conn__heartbeat_mav_type=name)
+    rig.tick(100.0)
+    assert rig.fcu.got('HEARTBEAT')[0].type == mav_type
+
+
 def test_heartbeat_from_another_component_or_system_is_ignored():
     rig = Rig(sys_status.SysStatus)
     camera = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_CAMERA)

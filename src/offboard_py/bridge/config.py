@@ -48,6 +48,13 @@ def read_config(get):
                                      # px4_config.yaml's 1.0; below 0, as mavros without it, thrust is not sent
                                      ('setpoint_raw/thrust_scaling', 1.0, -1e6, 1e6)):
         cfg[name] = float(_number(name, get(name, default), low, high))
+    # mavros's conn/heartbeat_mav_type: a MAV_TYPE name (utils::mav_type_from_str); an unknown one is
+    # GENERIC with mavros's error. PX4 sends STATUSTEXT only to a link that hears a GCS heartbeat.
+    mav_type = get('conn/heartbeat_mav_type', 'ONBOARD_CONTROLLER')
+    if not isinstance(mav_type, str):
+        raise ConfigError('parameter ~conn/heartbeat_mav_type: expected a MAV_TYPE name such as GCS, got %r'
+                          % (mav_type,))
+    cfg['conn/heartbeat_mav_type'] = mav_type
     read_time_config(get, cfg)
     read_imu_config(get, cfg)
     for key, name in (('fcu', 'fcu_url'), ('gcs', 'gcs_url')):

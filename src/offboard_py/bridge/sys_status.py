@@ -8,7 +8,7 @@
   exact mode name, else the number std::stoi reads from it; neither: mode_sent=false; a number
   outside int: the call fails, as mavros's uncaught exception makes it fail. Known: one SET_MODE
   is sent, no acknowledgement is awaited.
-- Our own HEARTBEAT at conn/heartbeat_rate, as mavros's: ONBOARD_CONTROLLER, autopilot INVALID,
+- Our own HEARTBEAT at conn/heartbeat_rate, as mavros's: ONBOARD_CONTROLLER (conn/heartbeat_mav_type), autopilot INVALID,
   base_mode MAV_MODE_MANUAL_ARMED (192), system_status ACTIVE (reference/px4-sitl-measured.md,
   "Recorded conversations": real mavros's HEARTBEAT carries base_mode 192).
 - ~sys_status (mavros_msgs/SysStatus): each SYS_STATUS as it is (not a gimbal's), stamped on arrival.
@@ -122,6 +122,16 @@ def custom_mode_from_string(text):
     return None if value is None else value & 0xFFFFFFFF
 
 
+
+def mav_type_from_name(name):
+    """mavros's utils::mav_type_from_str: MAV_TYPE_<name> (GCS, ONBOARD_CONTROLLER, ...), GENERIC with an
+    error for an unknown name, as mavros."""
+    value = getattr(mavlink, 'MAV_TYPE_' + name, None) if name.isupper() else None
+    if not isinstance(value, int) or name.endswith('ENUM_END'):
+        rospy.logerr('TYPE: Unknown MAV_TYPE: %s', name)
+        return mavlink.MAV_TYPE_GENERIC
+    return value
+
 class SysStatus:
     def __init__(self, bridge):
         self.bridge = bridge
@@ -146,6 +156,7 @@ class SysStatus:
         self.set_mode_srv = bridge.service('~set_mode', SetMode, self._set_mode)
         bridge.on('HEARTBEAT', self._on_heartbeat, filters.COMPONENT)
         bridge.on('EXTENDED_SYS_STATE', self._on_extended_state)
+        self.heartbeat_type = mav_type_from_name(bridge.cfg['conn/heartbeat_mav_type'])
         rate = bridge.cfg['conn/heartbeat_rate']
         if rate > 0:
             bridge.every(1.0 / rate, self._send_heartbeat)
@@ -243,7 +254,7 @@ class SysStatus:
 
     def _send_heartbeat(self, _now_s):
         b = self.bridge
-        b.send(b.mav.heartbeat_encode(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID,
+        b.send(b.mav.heartbeat_encode(self.heartbeat_type, mavlink.MAV_AUTOPILOT_INVALID,
                                       mavlink.MAV_MODE_MANUAL_ARMED, 0, mavlink.MAV_STATE_ACTIVE))
 
     def _set_mode(self, req):
