@@ -588,6 +588,52 @@ class BridgeTest(OffboardTestCase):
         self.wait_for_connected(self.silent, 3.0)
 
 
+    def test_11_attitude_then_global_setpoints_fly_through_mavros_topics(self):
+        """A user's code on mavros's setpoint_raw topics flies the simulated PX4 as PX4 flies it: level
+        attitude at thrust 0.6 (setpoint_raw/attitude) is the offboard signal and climbs; then a global
+        position (setpoint_raw/global, GLOBAL_REL_ALT 2.5 m over where it is) takes it to PX4's local z
+        for it, 2.5 m less home's local height (PX4's receiver adds home's offset with the sign turned)."""
+        self.wait_for_connected(self.sim, 15.0)
+        home = rospy.wait_for_message('mavros/home_position/home', HomePosition, 20.0)
+        fix = rospy.wait_for_message('mavros/global_position/global', NavSatFix, 5.0)
+        attitude = rospy.Publisher('mavros/setpoint_raw/attitude', AttitudeTarget, queue_size=10)
+        global_sp = rospy.Publisher('mavros/setpoint_raw/global', GlobalPositionTarget, queue_size=10)
+        level = AttitudeTarget(type_mask=AttitudeTarget.IGNORE_ROLL_RATE | AttitudeTarget.IGNORE_PITCH_RATE
+                               | AttitudeTarget.IGNORE_YAW_RATE, thrust=0.6)
+        level.orientation.w = 1.0
+        target = GlobalPositionTarget(coordinate_frame=GlobalPositionTarget.FRAME_GLOBAL_REL_ALT,
+                                      type_mask=GlobalPositionTarget.IGNORE_VX | GlobalPositionTarget.IGNORE_VY
+                                      | GlobalPositionTarget.IGNORE_VZ | GlobalPositionTarget.IGNORE_AFX
+                                      | GlobalPositionTarget.IGNORE_AFY | GlobalPositionTarget.IGNORE_AFZ
+                                      | GlobalPositionTarget.IGNORE_YAW_RATE,
+                                      latitude=fix.latitude, longitude=fix.longitude, altitude=2.5, yaw=0.0)
+        stream = {'msg': level, 'pub': attitude}
+        stop = threading.Event()
+
+        def run():
+            while not stop.is_set():
+                msg = stream['msg']
+                msg.header.stamp = rospy.Time.now()
+                stream['pub'].publish(msg)
+                stop.wait(0.05)
+        thread = threading.Thread(target=run, daemon=True)
+        thread.start()
+        try:
+            time.sleep(1.0)
+            self.assertTrue(self.set_mode(self.sim, 'OFFBOARD'))
+            self.wait_for_mode(self.sim, 'OFFBOARD', 4.0)
+            self.assertTrue(self.set_arm(self.sim, True).success, 'attitude setpoints are the offboard signal')
+            self.wait_until(lambda: self.sim.z() > 3.0, 15.0, 'a climb past 3 m at thrust 0.6', [self.sim])
+            stream.update(msg=target, pub=global_sp)
+            want = 2.5 - home.position.z
+            self.wait_until(lambda: abs(self.sim.z() - want) < 0.35, 20.0,
+                            'local z within 0.35 m of %.2f m' % want, [self.sim])
+            self.assertEqual(self.sim.state.mode, 'OFFBOARD')
+        finally:
+            stop.set()
+            thread.join()
+
+
 if __name__ == '__main__':
     rospy.init_node('test_bridge')
     rostest.rosrun(PKG, 'bridge', BridgeTest)
