@@ -556,18 +556,18 @@ def hover_thrust_plus(client, extra):
 def test_attitude_setpoints_are_the_offboard_signal_and_are_flown(start_sim):
     """PX4 takes SET_ATTITUDE_TARGET as the offboard signal (mavros setpoint_raw/attitude and
     setpoint_attitude) and flies the attitude and collective thrust without its position
-    controller: above hover thrust the vehicle climbs, below it sinks. Body rates alone are not
-    modelled and give no signal."""
+    controller: above hover thrust the vehicle climbs, below it sinks. A message with neither an
+    attitude nor roll and pitch rates gives no signal, as on PX4."""
     _, client = start_sim(*FAST)
     client.sleep(1.2)
-    rates_only = lambda: client.mav.set_attitude_target_encode(0, client.target, 1,
-                                                               mavlink.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE,
-                                                               [1.0, 0.0, 0.0, 0.0], 0.1, 0.0, 0.0, 0.5)
-    client.start_stream(message=rates_only)
+    neither = lambda: client.mav.set_attitude_target_encode(  # noqa: E731
+        0, client.target, 1, mavlink.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE
+        | mavlink.ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE, [1.0, 0.0, 0.0, 0.0], 0.1, 0.0, 0.0, 0.5)
+    client.start_stream(message=neither)
     client.sleep(0.5)
     assert client.set_mode('OFFBOARD') == ACCEPTED  # disarmed: accepted without the signal, as PX4
     client.wait_mode('OFFBOARD', 2.0)
-    assert client.arm() == TEMPORARILY_REJECTED, 'body rates alone are no signal here'
+    assert client.arm() == TEMPORARILY_REJECTED, 'no attitude and no roll rate: no signal'
     client.start_stream(message=hover_thrust_plus(client, 0.1))
     client.sleep(0.5)
     assert client.arm() == ACCEPTED

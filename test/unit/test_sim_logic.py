@@ -100,12 +100,48 @@ def test_attitude_setpoint():
     sp = offboard_input.attitude_setpoint(0, (2 * half, 0.0, 0.0, 2 * half), 0.6)  # not unit: normalised
     assert sp.attitude == pytest.approx((half, 0.0, 0.0, half)) and sp.yaw == pytest.approx(math.pi / 2)
     assert sp.thrust == 0.6 and all(math.isnan(v) for v in sp.position + sp.velocity)
-    for mask, q, thrust, words in [(M.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE, (1, 0, 0, 0), 0.5, 'body rate'),
+    no_rates = (M.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE | M.ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE)
+    for mask, q, thrust, words in [(no_rates, (1, 0, 0, 0), 0.5, 'neither an attitude nor'),
                                    (0, (0, 0, 0, 0), 0.5, 'all zero'), (0, (NAN, 0, 0, 1), 0.5, 'not finite'),
                                    (0, (1, 0, 0, 0), 1.5, 'outside 0..1'), (0, (1, 0, 0, 0), NAN, 'outside 0..1'),
                                    (32, (1, 0, 0, 0), 0.5, 'thrust_body')]:
         with pytest.raises(offboard_input.SetpointRejected, match=words):
             offboard_input.attitude_setpoint(mask, q, thrust)
+
+
+def test_body_rate_setpoints():
+    """Attitude ignored, roll and pitch rates given: PX4 flies the rates (its body_rates offboard mode);
+    the yaw rate is 0 when ignored; a NaN rate is refused."""
+    rates_only = M.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE
+    sp = offboard_input.attitude_setpoint(rates_only | M.ATTITUDE_TARGET_TYPEMASK_BODY_YAW_RATE_IGNORE,
+                                          (1, 0, 0, 0), 0.55, (0.1, -0.2, 0.3))
+    assert sp.rates == (0.1, -0.2, 0.0) and sp.thrust == 0.55 and sp.attitude is None
+    with pytest.raises(offboard_input.SetpointRejected, match='not finite'):
+        offboard_input.attitude_setpoint(rates_only, (1, 0, 0, 0), 0.5, (NAN, 0.0, 0.0))
+
+
+def test_body_rates_flown_frd():
+    """Armed in OFFBOARD on body rates, facing north: a positive roll rate (FRD: right side down)
+    tilts the thrust to the east and the vehicle goes east; a positive pitch rate (nose up) sends it
+    south; a yaw rate turns it."""
+    mask = M.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE
+
+    def rates(roll=0.0, pitch=0.0, yaw=0.0, thrust=0.6):
+        return offboard_input.attitude_setpoint(mask, (1, 0, 0, 0), thrust, (roll, pitch, yaw))
+    for axis, sign, turn in ((1, 1.0, {'roll': 0.4}), (0, -1.0, {'pitch': 0.4})):
+        f = make()
+        t = fly(f, 0.0, 0.5, rates())
+        assert f.request_mode('OFFBOARD', t) == ACCEPTED and f.request_arming(True, False, t) == ACCEPTED
+        t = fly(f, t, 3.0, rates())
+        assert f.vehicle.position[2] < f.vehicle.ground_z - 0.5, 'climbing at thrust 0.6'
+        start = list(f.vehicle.position)
+        t = fly(f, t, 0.5, rates(**turn))
+        t = fly(f, t, 1.5, rates())
+        moved = f.vehicle.position[axis] - start[axis]
+        assert sign * moved > 0.3, (turn, moved)
+    yaw0 = f.vehicle.yaw
+    fly(f, t, 1.0, rates(yaw=0.5))
+    assert f.vehicle.yaw - yaw0 == pytest.approx(0.5, abs=0.05)
 
 
 def test_attitude_setpoint_flown_without_the_position_controller():

@@ -13,8 +13,8 @@ PX4's mavlink_receiver.cpp where they are silent):
   an infinite number anywhere.
 SET_POSITION_TARGET_GLOBAL_INT: the position (all three axes or none) projected around the local
 frame's origin, its altitude by frame as PX4 computes it; velocity and acceleration taken as NED.
-SET_ATTITUDE_TARGET: an attitude (its quaternion, normalised) and a collective thrust, flown without
-the position controller. Body rates alone (the attitude ignored) are not modelled and are refused.
+SET_ATTITUDE_TARGET: an attitude (its quaternion, normalised), or body rates (the attitude ignored,
+roll and pitch rates given), and a collective thrust, flown without the position controller.
 Pure: it never sees a socket or a clock. Whether OFFBOARD flies it is the commander's rule.
 """
 
@@ -124,30 +124,41 @@ def from_global_message(msg, local_frame, home_amsl):
                            local_frame, home_amsl)
 
 
-def attitude_setpoint(type_mask, q_wxyz, thrust):
-    """Decode a SET_ATTITUDE_TARGET into a vehicle Setpoint that flies attitude `q_wxyz` (NED/FRD,
-    normalised here) at collective `thrust` (0..1, PX4's fill_thrust for a multicopter). Raises
-    SetpointRejected for what this vehicle does not fly: rates without an attitude, a quaternion
-    that is not a rotation, a thrust that is not a number or outside 0..1, or thrust_body."""
-    if type_mask & mavlink.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE:
-        raise SetpointRejected('body rate setpoints (ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE set) are not modelled')
+def attitude_setpoint(type_mask, q_wxyz, thrust, body_rates=(0.0, 0.0, 0.0)):
+    """Decode a SET_ATTITUDE_TARGET into a vehicle Setpoint, as PX4's receiver reads it: with the
+    attitude, fly attitude `q_wxyz` (NED/FRD, normalised here); without it but with roll and pitch
+    rates, fly `body_rates` (FRD, rad/s; the yaw rate 0 when ignored); either at collective `thrust`
+    (0..1, PX4's fill_thrust for a multicopter; 0 when ignored). Raises SetpointRejected for a message
+    with neither (no offboard signal on PX4 either), thrust_body (not modelled), a quaternion that is
+    not a rotation, rates or a thrust that are not numbers, or a thrust outside 0..1."""
     if type_mask & ATTITUDE_TARGET_TYPEMASK_THRUST_BODY_SET:
         raise SetpointRejected('thrust_body setpoints (ATTITUDE_TARGET_TYPEMASK_THRUST_BODY_SET) are not modelled')
+    if type_mask & mavlink.ATTITUDE_TARGET_TYPEMASK_THROTTLE_IGNORE:
+        thrust = 0.0  # PX4 leaves the thrust setpoint at zero: the vehicle falls or stays down
+    elif not (math.isfinite(thrust) and 0.0 <= thrust <= 1.0):
+        raise SetpointRejected('thrust %r is outside 0..1' % thrust)
+    if type_mask & mavlink.ATTITUDE_TARGET_TYPEMASK_ATTITUDE_IGNORE:
+        if type_mask & (mavlink.ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE
+                        | mavlink.ATTITUDE_TARGET_TYPEMASK_BODY_PITCH_RATE_IGNORE):
+            raise SetpointRejected('neither an attitude nor roll and pitch rates (type_mask 0x%x)' % type_mask)
+        rates = list(body_rates)
+        if type_mask & mavlink.ATTITUDE_TARGET_TYPEMASK_BODY_YAW_RATE_IGNORE:
+            rates[2] = 0.0
+        if not all(math.isfinite(r) for r in rates):
+            raise SetpointRejected('body rates %r are not finite' % (tuple(rates),))
+        return vm.setpoint(rates=tuple(float(r) for r in rates), thrust=float(thrust))
     if not all(math.isfinite(c) for c in q_wxyz):
         raise SetpointRejected('attitude quaternion %r is not finite' % (tuple(q_wxyz),))
     norm = math.sqrt(sum(c * c for c in q_wxyz))
     if norm < 1e-6:
         raise SetpointRejected('attitude quaternion is all zero: not a rotation')
     q = tuple(c / norm for c in q_wxyz)
-    if type_mask & mavlink.ATTITUDE_TARGET_TYPEMASK_THROTTLE_IGNORE:
-        thrust = vm.NAN  # PX4 leaves the thrust setpoint at zero: the vehicle falls or stays down
-    elif not (math.isfinite(thrust) and 0.0 <= thrust <= 1.0):
-        raise SetpointRejected('thrust %r is outside 0..1' % thrust)
     w, x, y, z = q
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return vm.setpoint(yaw=yaw, attitude=q, thrust=0.0 if thrust != thrust else float(thrust))
+    return vm.setpoint(yaw=yaw, attitude=q, thrust=float(thrust))
 
 
 def from_attitude_message(msg):
     """attitude_setpoint() of a pymavlink SET_ATTITUDE_TARGET (q is w, x, y, z)."""
-    return attitude_setpoint(msg.type_mask, tuple(msg.q), msg.thrust)
+    return attitude_setpoint(msg.type_mask, tuple(msg.q), msg.thrust,
+                             (msg.body_roll_rate, msg.body_pitch_rate, msg.body_yaw_rate))

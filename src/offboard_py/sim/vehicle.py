@@ -46,18 +46,20 @@ ATTITUDE_SUBSTEP_S = 0.01  # the rate response is integrated in steps no longer 
 YAW_P = 2.8               # MC_YAW_P
 YAW_RATE_MAX = math.radians(200.0)  # MC_YAWRATE_MAX
 Setpoint = namedtuple('Setpoint', 'position velocity acceleration yaw yaw_rate xy_speed_max z_up_max z_down_max '
-                                  'attitude thrust')
+                                  'attitude thrust rates')
 Setpoint.__doc__ = """What a flight mode asks of the controller. Vectors are NED 3-tuples whose NaN
 components are not controlled; yaw/yaw_rate NaN means "keep". The *_max fields, when not
 None, tighten the MPC_* velocity limits (takeoff and landing speeds, cruise speed). `attitude`
-(w, x, y, z, NED/FRD, unit), when not None, is flown with collective `thrust` (0..1) without the
-position controller, as PX4's offboard attitude control does."""
+(w, x, y, z, NED/FRD, unit) or else `rates` (roll, pitch, yaw; FRD, rad/s), when not None, is flown
+with collective `thrust` (0..1) without the position controller, as PX4's offboard attitude and
+rate control do."""
 
 
 def setpoint(position=(NAN, NAN, NAN), velocity=(NAN, NAN, NAN), acceleration=(NAN, NAN, NAN),
-             yaw=NAN, yaw_rate=NAN, xy_speed_max=None, z_up_max=None, z_down_max=None, attitude=None, thrust=0.0):
+             yaw=NAN, yaw_rate=NAN, xy_speed_max=None, z_up_max=None, z_down_max=None, attitude=None, thrust=0.0,
+             rates=None):
     return Setpoint(tuple(position), tuple(velocity), tuple(acceleration), yaw, yaw_rate,
-                    xy_speed_max, z_up_max, z_down_max, attitude, thrust)
+                    xy_speed_max, z_up_max, z_down_max, attitude, thrust, rates)
 
 
 def hold(position, yaw):
@@ -130,6 +132,7 @@ class VehicleModel:
         # the setpoint flown (for telemetry; None while the motors do not fly) and the thrust asked for
         self.setpoint = None
         self.thrust_setpoint = [0.0, 0.0, 0.0]
+        self._rates_sp = None  # offboard body rates (roll, pitch, yaw) this step, or None
 
     # -- commands from the commander -----------------------------------------------------
 
@@ -164,7 +167,8 @@ class VehicleModel:
         self._now_s = now_s
         climb_speed = p['MPC_Z_VEL_MAX_UP'] if sp.z_up_max is None else min(sp.z_up_max, p['MPC_Z_VEL_MAX_UP'])
         control = self.control
-        if sp.attitude is not None and self.motors_on:
+        self._rates_sp = None
+        if (sp.attitude is not None or sp.rates is not None) and self.motors_on:
             thrust_sp = self._fly_attitude(sp, now_s)
             flying = control.flying()
         else:
@@ -224,13 +228,20 @@ class VehicleModel:
             self.setpoint = None
             return [0.0, 0.0, 0.0]
         control.takeoff_state = 'flight'  # what PX4's takeoff handling finds if position control resumes
-        w, x, y, z = sp.attitude
-        body_z = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
+        if sp.attitude is None:  # body rates: the rate loop turns the body, the thrust goes along it
+            self._rates_sp = sp.rates
+            body_z = self.tilt
+        else:
+            w, x, y, z = sp.attitude
+            body_z = (2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y))
         thrust_sp = [-c * sp.thrust for c in body_z]
         p = self.params
         thrust_acc = 4.0 * p['SIH_T_MAX'] / max(p['SIH_MASS'], 0.01)
         control.acceleration_setpoint = [t * thrust_acc + (GRAVITY if i == 2 else 0.0) for i, t in enumerate(thrust_sp)]
-        yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
+        if sp.attitude is None:
+            yaw_rate = sp.rates[2]
+        else:
+            yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
         self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
         self.setpoint = sp
         return thrust_sp
@@ -268,8 +279,11 @@ class VehicleModel:
             scale = 1.0
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         roll_max, pitch_max = math.radians(p['MC_ROLLRATE_MAX']), math.radians(p['MC_PITCHRATE_MAX'])
-        rates_sp = (clamp(p['MC_ROLL_P'] * scale * (cx * c + cy * s), -roll_max, roll_max),
-                    clamp(p['MC_PITCH_P'] * scale * (cy * c - cx * s), -pitch_max, pitch_max))
+        if self._rates_sp is not None:  # offboard body rates: the rate loop's setpoint as given (FRD)
+            asked = self._rates_sp[0], self._rates_sp[1]
+        else:
+            asked = p['MC_ROLL_P'] * scale * (cx * c + cy * s), p['MC_PITCH_P'] * scale * (cy * c - cx * s)
+        rates_sp = (clamp(asked[0], -roll_max, roll_max), clamp(asked[1], -pitch_max, pitch_max))
         roll_sp, pitch_sp = rates_sp
         substeps = int(dt / ATTITUDE_SUBSTEP_S - 1e-9) + 1
         h = dt / substeps
