@@ -394,10 +394,11 @@ class BridgeTest(OffboardTestCase):
             sub.unregister()
         self.assertGreaterEqual(rate, 3.5, 'home_position/home at %.1f Hz after asking for 5 Hz' % rate)
         rospy.ServiceProxy('mavros/set_stream_rate', StreamRate)(stream_id=0, message_rate=10, on_off=True)
-        # param/push: the ROS parameters under ~param, set on the FCU where they differ
+        # param/push: every ROS parameter under ~param set on the FCU again, as mavros (a dictionary set
+        # at ~param replaces what the pull had mirrored there)
         rospy.set_param('mavros/param', {'MPC_XY_CRUISE': 6.0, 'MPC_XY_VEL_MAX': 12.0})
         res = rospy.ServiceProxy('mavros/param/push', ParamPush)()
-        self.assertEqual((res.success, res.param_transfered), (True, 1))
+        self.assertEqual((res.success, res.param_transfered), (True, 2))
         got = rospy.ServiceProxy('mavros/param/get', ParamGet)(param_id='MPC_XY_CRUISE')
         self.assertAlmostEqual(got.value.real, 6.0, places=5)
 

@@ -1274,13 +1274,26 @@ def test_set_message_interval_and_stream_rate():
     assert (stream.req_stream_id, stream.req_message_rate, stream.start_stop) == (0, 10, 1)
 
 
-def test_param_push_sets_what_differs(monkeypatch):
+def test_param_push_sets_every_known_parameter_and_answers_success_as_mavros(monkeypatch):
+    """mavros's push_cb: each ~param the FCU has is set again, changed or not; an unknown one is
+    warned of and not counted; the answer is success."""
     from mavros_msgs.srv import ParamPushRequest
     rig = param_fcu_rig(monkeypatch)
     rig.ros.params['~param'] = {'MPC_XY_VEL_MAX': 12.0, 'COM_RCL_EXCEPT': 5, 'NO_SUCH_PARAM': 1.0}
     res = rig.call('~param/push', ParamPushRequest())
-    assert (res.success, res.param_transfered) == (False, 1), 'one set, one unknown to the FCU'
-    assert [m.param_id for m in rig.fcu.got('PARAM_SET')] == ['COM_RCL_EXCEPT'], '12.0 is already there'
+    assert (res.success, res.param_transfered) == (True, 2), 'two set, one unknown to the FCU'
+    assert [m.param_id for m in rig.fcu.got('PARAM_SET')] == ['COM_RCL_EXCEPT', 'MPC_XY_VEL_MAX']
+
+
+def test_param_set_answers_success_for_any_echo_as_mavros(monkeypatch):
+    """mavros's set_cb: success when the FCU echoed (send_param_set_and_wait), the value the echo's: a
+    value the FCU kept (PX4 refusing it) comes back as success with the old value."""
+    rig = param_fcu_rig(monkeypatch)
+    rig.fcu.answers['PARAM_SET'] = lambda m: [param_value(2)]  # COM_RCL_EXCEPT stays 4
+    request = ParamSetRequest(param_id='COM_RCL_EXCEPT')
+    request.value.integer = 9
+    response = rig.call('~param/set', request)
+    assert response.success and response.value.integer == 4
 
 
 def test_mission_set_current_waits_for_mission_current():

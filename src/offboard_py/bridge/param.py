@@ -213,7 +213,9 @@ class Param:
         value, vtype = echo
         same = value == wanted or (not param_codec.is_integer(vtype) and abs(value - wanted) < 1e-6 *
                                    max(1.0, abs(wanted)))
-        return ParamSetResponse(success=same, value=self._value_msg(value, vtype))
+        if not same:  # mavros answers success for any echo (send_param_set_and_wait); the value says the rest
+            rospy.logwarn('PR: %s: the FCU kept %r, not %r', req.param_id, value, wanted)
+        return ParamSetResponse(success=True, value=self._value_msg(value, vtype))
 
     def _echo(self, param_id, before, deadline_s):
         """(value, type) of the first PARAM_VALUE of `param_id` after the `before`th, or None by the deadline."""
@@ -244,22 +246,22 @@ class Param:
         return sent
 
     def _push(self, _req):
-        """mavros's param/push: each ROS parameter under ~param (NAME: number) set on the FCU
-        where it differs; success when every one was set."""
+        """mavros's param/push (push_cb): every ROS parameter under ~param that the FCU has is set on it
+        again, changed or not, except the ids mavros never pushes; an unknown one is warned of;
+        `param_transfered` counts the sets the FCU echoed, and the answer is success whatever they did."""
         wanted = self.bridge.get_param('~param', {})
         if not isinstance(wanted, dict):
             rospy.logerr('PR: ~param is not a dictionary of parameters: %r', wanted)
-            return ParamPushResponse(success=False, param_transfered=0)
-        transferred, failed = 0, []
+            return ParamPushResponse(success=True, param_transfered=0)
+        transferred = 0
         for name, value in sorted(wanted.items()):
             if name in PUSH_EXCLUDED:
                 continue
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                rospy.logerr('PR: ~param/%s: %r is not a number', name, value)
-                failed.append(name)
+            if self._entry(name) is None:
+                rospy.logwarn('PR: Unknown rosparam: %s', name)
                 continue
-            entry = self._entry(name)
-            if entry is not None and entry[0] == value:
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                rospy.logerr('PR: ~param/%s: %r is not a number: not set', name, value)
                 continue
             req = ParamSetRequest(param_id=name)
             if isinstance(value, int):
@@ -268,8 +270,4 @@ class Param:
                 req.value.real = value
             if self._set(req).success:
                 transferred += 1
-            else:
-                failed.append(name)
-        if failed:
-            rospy.logerr('PR: push: not set: %s', ', '.join(failed))
-        return ParamPushResponse(success=not failed, param_transfered=transferred)
+        return ParamPushResponse(success=True, param_transfered=transferred)
