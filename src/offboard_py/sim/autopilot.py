@@ -59,6 +59,19 @@ COMMAND_REPEATS_S = (1.01, 1.53, 2.04)
 # (reference/conversations/takeoff-mavros-px4 t=1.005, takeoff-bridge-px4 t=1.013: boot 1.44 and 1.33 s,
 # PX4's links starting 0.3-0.45 s after its boot); this simulator's links start at its boot
 ORIGIN_FIRST_SENT_S = 1.0
+# PX4's parameter manager (mavlink_parameters.cpp send_untransmitted) sends on every link, unasked and in
+# index order, each parameter changed since boot and not yet saved, a moment after a change: what its start-up
+# script set (sensor ids and priorities, the board offsets, the airframe) at boot 1.00 and 1.03 s in the two
+# recordings, and the barometer's offset, set by the sensors module's auto-calibration against GPS altitude
+# (SENS_BAR_AUTOCAL), at 5.32 and 5.49 s (reference/px4-sitl-boot-params.json). (boot s, names) in time order
+BOOT_PARAM_ANNOUNCEMENTS = (
+    (1.0, ('CAL_ACC0_ID', 'CAL_ACC1_ID', 'CAL_ACC2_ID', 'CAL_BARO0_ID', 'CAL_BARO0_PRIO', 'CAL_GYRO0_ID',
+           'CAL_GYRO1_ID', 'CAL_GYRO2_ID', 'CAL_MAG0_ID', 'CAL_MAG0_PRIO', 'CAL_MAG1_ID', 'CAL_MAG1_PRIO',
+           'SENS_BOARD_X_OFF', 'SENS_DPRES_OFF', 'SYS_AUTOCONFIG', 'SYS_AUTOSTART')),
+    (5.4, ('CAL_BARO0_OFF',)))
+# The barometer's offset PX4 computed at 5 s (Pa): 6.103515625 and -12.20703125 in the two recordings, multiples
+# of the pressure's float resolution, so noise; the table's 0 is the default before the calibration
+BARO_OFFSET_PA = 6.103515625
 # PX4's STATUSTEXT stream (streams/STATUSTEXT.hpp) sends on a link only while a MAV_TYPE_GCS HEARTBEAT was
 # heard on it within telemetry_status HEARTBEAT_TIMEOUT_US (2.5 s), one text each time it runs (20 Hz), from
 # the mavlink_log queue (8 deep: older texts are overwritten), dropping texts older than 5 s
@@ -155,6 +168,7 @@ class SimulatedPx4:
         self.texts = {link: collections.deque(maxlen=STATUSTEXT_QUEUE) for link in self.links}  # (t, sev, text)
         self.text_sent = {link: None for link in self.links}  # boot time of the link's last STATUSTEXT
         self.origin_sent = False  # GPS_GLOBAL_ORIGIN's one message on every link (ORIGIN_FIRST_SENT_S)
+        self.boot_announcements = collections.deque(BOOT_PARAM_ANNOUNCEMENTS)  # still to be sent
         self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
@@ -711,6 +725,14 @@ class SimulatedPx4:
                     self.text_sent[link] = now
                     break
 
+    def _send_everywhere(self, msgs, out=None):
+        """What PX4 sends on every link of its own accord: into out[link] with the cycle, or at once."""
+        for link in self.links:
+            if out is None:
+                link.send_many(msgs)
+            else:
+                out.setdefault(link, []).extend(msgs)
+
     def _say_events(self):
         """What the flight stack said, on the link."""
         events = self.flight.take_events()
@@ -752,12 +774,12 @@ class SimulatedPx4:
         self._send_texts(now, out)
         if not self.origin_sent and now >= ORIGIN_FIRST_SENT_S:
             self.origin_sent = True
-            origin = self.telemetry.build('GPS_GLOBAL_ORIGIN', None, now)
-            for link in self.links:
-                if out is None:
-                    link.send(origin)
-                else:
-                    out.setdefault(link, []).append(origin)
+            self._send_everywhere([self.telemetry.build('GPS_GLOBAL_ORIGIN', None, now)], out)
+        while self.boot_announcements and now >= self.boot_announcements[0][0]:
+            _, names = self.boot_announcements.popleft()
+            if 'CAL_BARO0_OFF' in names:
+                self.params.set('CAL_BARO0_OFF', BARO_OFFSET_PA)  # the sensors module's calibration
+            self._send_everywhere([self._param_value(name) for name in names], out)
         status, built = None, {}
         for link, streams in self.streams.items():
             due = streams.due(now)
