@@ -249,3 +249,24 @@ def test_parameters_px4_sets_at_boot_are_announced_unasked_at_its_boot_times(rig
         values = [r[2] for r in recorded]
         assert any(abs(sent_value(msg) - v) <= 1e-6 * max(1.0, abs(v)) for v in values), (name, msg, values)
         assert sent_value(msg) == pytest.approx(rig.ap.params[name], rel=1e-6), 'the table says what was sent'
+
+
+def test_a_text_longer_than_50_characters_goes_out_in_chunks_of_one_id(rig):
+    """PX4's STATUSTEXT stream (streams/STATUSTEXT.hpp): a text in 50-byte chunks, chunk_seq 0, 1, ...,
+    all with the id its stream instance gives each text (0 for the link's first, then 1, ...; a short text
+    takes one too); PX4's log queue holds 126 characters of a text (mavlink_log's char[127])."""
+    heartbeat(rig, mavlink.MAV_TYPE_GCS)
+    long_text = ''.join(chr(ord('a') + i % 26) for i in range(120))
+    too_long = 'x' * 130
+    rig.ap._text(mavlink.MAV_SEVERITY_INFO, 'short')
+    rig.ap._text(mavlink.MAV_SEVERITY_WARNING, long_text)
+    rig.ap._text(mavlink.MAV_SEVERITY_INFO, too_long)
+    rig.run(0.3)
+    sent = [(m.id, m.chunk_seq, m.severity, m.text) for m in rig.of('STATUSTEXT')]
+    assert sent == [(0, 0, mavlink.MAV_SEVERITY_INFO, 'short'),
+                    (1, 0, mavlink.MAV_SEVERITY_WARNING, long_text[:50]),
+                    (1, 1, mavlink.MAV_SEVERITY_WARNING, long_text[50:100]),
+                    (1, 2, mavlink.MAV_SEVERITY_WARNING, long_text[100:]),
+                    (2, 0, mavlink.MAV_SEVERITY_INFO, 'x' * 50),
+                    (2, 1, mavlink.MAV_SEVERITY_INFO, 'x' * 50),
+                    (2, 2, mavlink.MAV_SEVERITY_INFO, 'x' * 26)], sent

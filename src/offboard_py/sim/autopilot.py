@@ -167,6 +167,7 @@ class SimulatedPx4:
         self.gcs_heard = {link: None for link in self.links}  # boot time of the link's last GCS HEARTBEAT
         self.texts = {link: collections.deque(maxlen=STATUSTEXT_QUEUE) for link in self.links}  # (t, sev, text)
         self.text_sent = {link: None for link in self.links}  # boot time of the link's last STATUSTEXT
+        self.text_ids = {link: 0 for link in self.links}  # the link's next STATUSTEXT.id: PX4 counts per stream
         self.origin_sent = False  # GPS_GLOBAL_ORIGIN's one message on every link (ORIGIN_FIRST_SENT_S)
         self.boot_announcements = collections.deque(BOOT_PARAM_ANNOUNCEMENTS)  # still to be sent
         self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
@@ -706,8 +707,9 @@ class SimulatedPx4:
             queue.append((now, severity, text))
 
     def _send_texts(self, now, out=None):
-        """A link's next fresh text, at most one every STATUSTEXT_INTERVAL_S, while a GCS is heard on it;
-        what waits while none is stays queued (STATUSTEXT_QUEUE) and is dropped once STATUSTEXT_STALE_S old."""
+        """A link's next fresh text (all its chunks), at most one every STATUSTEXT_INTERVAL_S, while a GCS is
+        heard on it; what waits while none is stays queued (STATUSTEXT_QUEUE) and is dropped once
+        STATUSTEXT_STALE_S old."""
         for link, queue in self.texts.items():
             if not queue or not self.gcs_connected(link, now):
                 continue
@@ -717,11 +719,12 @@ class SimulatedPx4:
             while queue:
                 said, severity, text = queue.popleft()
                 if now - said < STATUSTEXT_STALE_S:
-                    msg = self.telemetry.statustext(severity, text)
+                    msgs = self.telemetry.statustext(severity, text, self.text_ids[link])
+                    self.text_ids[link] = (self.text_ids[link] + 1) % 65536  # PX4's uint16_t _id
                     if out is None:
-                        link.send(msg)
+                        link.send_many(msgs)
                     else:
-                        out.setdefault(link, []).append(msg)
+                        out.setdefault(link, []).extend(msgs)
                     self.text_sent[link] = now
                     break
 

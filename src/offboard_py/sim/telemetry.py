@@ -106,6 +106,10 @@ ON_REQUEST = frozenset(('AUTOPILOT_VERSION', 'PROTOCOL_VERSION', 'GPS_GLOBAL_ORI
 # has nothing to send, and REQUEST_MESSAGE for it is DENIED. The stream sends it again only when the
 # origin changes, which it did not in either flight (one each, arming and takeoff included).
 ORIGIN_SET_S = 0.64
+# PX4's STATUSTEXT stream sends a text of its log queue (mavlink_log: char[127], so 126 characters) in
+# chunks of STATUSTEXT.text's 50 bytes (streams/STATUSTEXT.hpp)
+STATUSTEXT_MAX_CHARS = 126
+STATUSTEXT_CHUNK_BYTES = 50
 # Every message the builder makes: what SET_MESSAGE_INTERVAL and REQUEST_MESSAGE accept
 STREAMABLE = frozenset(ONBOARD_RATES_HZ) | frozenset(GCS_RATES_HZ)
 NAMES_BY_ID = {getattr(mavlink, 'MAVLINK_MSG_ID_' + name): name for name in STREAMABLE | ON_REQUEST}
@@ -626,8 +630,14 @@ class TelemetryBuilder:
         mavlink submodule PX4 was built with (its commit as a little-endian uint64, wire order)."""
         return self.mav.protocol_version_encode(200, 100, 203, [0] * 8, list(MAVLINK_LIBRARY_HASH))
 
-    def statustext(self, severity, text):
-        return self.mav.statustext_encode(severity, text.encode('ascii', 'replace')[:50])
+    def statustext(self, severity, text, text_id):
+        """A text as PX4's STATUSTEXT stream sends it: the first STATUSTEXT_MAX_CHARS of it (PX4's log
+        queue's char[127]) in chunks of 50 bytes, chunk_seq 0, 1, ..., each with the text's `text_id`;
+        nothing for an empty text, as PX4."""
+        data = text.encode('ascii', 'replace')[:STATUSTEXT_MAX_CHARS]
+        chunk = STATUSTEXT_CHUNK_BYTES
+        return [self.mav.statustext_encode(severity, data[i:i + chunk], text_id, seq)
+                for seq, i in enumerate(range(0, len(data), chunk))]
 
 
 class LinkCounters:
