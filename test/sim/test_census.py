@@ -26,6 +26,10 @@ REFERENCE = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..',
 # metadata, and pymavlink 2.4.49 has neither message in any dialect, so the simulator sends neither
 OMITTED = {410: 'EVENT', 411: 'CURRENT_EVENT_SEQUENCE'}
 OMITTED_NAMES = frozenset(OMITTED.values())
+# Not a stream: PX4 announces CAL_BARO0_OFF once, unasked, at about 5.4 s after boot, when its barometer
+# calibration sets it (reference/px4-sitl-boot-params.json), inside a window that starts at "ready"; the
+# censuses were taken later
+ANNOUNCED_NAMES = frozenset(('PARAM_VALUE',))
 
 
 def load_census(name):
@@ -101,7 +105,7 @@ def test_onboard_rates_and_fields_as_px4_sitl(start_sim):
     errors = rate_errors(rates, expected_rates(CENSUS))
     assert not errors, 'rates off by more than 10 %%: %s; measured %s' % (
         ', '.join(errors), {k: round(v, 2) for k, v in sorted(rates.items())})
-    unexpected = set(rates) - set(CENSUS['rates_hz'])
+    unexpected = set(rates) - set(CENSUS['rates_hz']) - ANNOUNCED_NAMES
     assert not unexpected, 'types PX4 does not send on this link: %s' % sorted(unexpected)
 
     fields = CENSUS['fields']
@@ -319,7 +323,7 @@ def test_gcs_link_as_px4_sitl(start_sim):
         print('GCS link, Hz:', ', '.join('%s %.2f' % kv for kv in sorted(rates.items())))
         errors = rate_errors(rates, expected_rates(GCS_CENSUS))
         assert not errors, 'GCS link rates: %s; measured %s' % (', '.join(errors), rates)
-        unexpected = set(rates) - set(GCS_CENSUS['rates_hz'])
+        unexpected = set(rates) - set(GCS_CENSUS['rates_hz']) - ANNOUNCED_NAMES
         assert not unexpected, 'types PX4 does not send on the GCS link: %s' % sorted(unexpected)
         total = sum(1 for t, _ in list(gcs.history) if t0 <= t <= t1) / (t1 - t0)
         want = sum(expected_rates(GCS_CENSUS).values())
