@@ -344,8 +344,8 @@ def test_gcs_link_as_px4_sitl(start_sim):
         assert gcs.command(31999)[0] == UNSUPPORTED
         start = len(gcs.history)
         gcs.send(gcs.mav.param_request_read_encode(gcs.target, 1, b'MAV_TYPE', -1))
-        value = gcs.wait_for(lambda: next((m for _, m in gcs.history[start:] if m.get_type() == 'PARAM_VALUE'),
-                                          None), 2.0, 'PARAM_VALUE on the GCS link')
+        value = gcs.wait_for(lambda: next((m for _, m in gcs.history[start:] if m.get_type() == 'PARAM_VALUE'
+                                           and m.param_id == 'MAV_TYPE'), None), 2.0, 'PARAM_VALUE on the GCS link')
         assert value.param_id == 'MAV_TYPE'
         gcs.send(gcs.mav.mission_request_list_encode(gcs.target, 1, mavlink.MAV_MISSION_TYPE_MISSION))
         gcs.wait_for(lambda: any(m.get_type() == 'MISSION_COUNT' for _, m in gcs.history[start:]), 2.0,

@@ -78,7 +78,9 @@ def hostile_frames(rng, count, target):
 def read_param(client, name):
     client.latest.pop('PARAM_VALUE', None)
     client.send(client.mav.param_request_read_encode(client.target, 1, name.encode(), -1))
-    msg = client.wait_for(lambda: client.latest.get('PARAM_VALUE'), 3.0, 'PARAM_VALUE ' + name)
+    # by name: PX4 also sends PARAM_VALUEs unasked (sixteen at boot, CAL_BARO0_OFF at 5.4 s)
+    msg = client.wait_for(lambda: client.latest.get('PARAM_VALUE') if client.latest.get('PARAM_VALUE')
+                          and client.latest['PARAM_VALUE'].param_id == name else None, 3.0, 'PARAM_VALUE ' + name)
     return msg.param_value
 
 

@@ -38,6 +38,13 @@ def param_values_since(client, start):
     return [(t, m) for t, m in list(client.history[start:]) if m.get_type() == 'PARAM_VALUE']
 
 
+def past_the_boot_burst(client):
+    """Wait for the sixteen PARAM_VALUEs PX4 sends unasked 1.0 s after boot (reference/px4-sitl-boot-params.json),
+    so that a test's window holds only what it asked for."""
+    client.wait_for(lambda: len(param_values_since(client, 0)) >= 16, 3.0, 'the boot PARAM_VALUEs')
+    client.sleep(0.1)
+
+
 def wait_param_value(client, start, name, timeout_s=2.0):
     return client.wait_for(lambda: next((m for _, m in param_values_since(client, start) if m.param_id == name), None),
                            timeout_s, 'PARAM_VALUE ' + name)
@@ -45,7 +52,7 @@ def wait_param_value(client, start, name, timeout_s=2.0):
 
 def test_param_request_list_sends_the_whole_table_while_the_streams_go_on(start_sim):
     _, client = start_sim(*FAST)
-    client.sleep(0.5)
+    past_the_boot_burst(client)
     start = len(client.history)
     t0 = client.now()
     client.send(client.mav.param_request_list_encode(client.target, 1))
@@ -91,6 +98,7 @@ def test_a_second_param_request_list_under_way_starts_again_at_index_0_without_t
     """PX4's MavlinkParametersManager: a PARAM_REQUEST_LIST while a list is under way sets the next
     index to 0 ("a restart should skip the hash check on the ground"), so one _HASH_CHECK only."""
     _, client = start_sim(*FAST)
+    past_the_boot_burst(client)
     start = len(client.history)
     client.send(client.mav.param_request_list_encode(client.target, 1))
     client.wait_for(lambda: any(m.param_index == 100 for _, m in param_values_since(client, start)), LIST_BOUND_S,
@@ -112,6 +120,7 @@ def test_a_second_param_request_list_under_way_starts_again_at_index_0_without_t
 
 def test_param_request_read_by_index_names_what_the_list_names_and_888_gets_no_answer(start_sim):
     _, client = start_sim(*FAST)
+    past_the_boot_burst(client)
     for index in READ_BY_INDEX:
         start = len(client.history)
         client.send(client.mav.param_request_read_encode(client.target, 1, b'', index))
@@ -126,6 +135,7 @@ def test_param_request_read_by_index_names_what_the_list_names_and_888_gets_no_a
 
 def test_param_set_is_echoed_for_unmodelled_and_modelled_parameters(start_sim):
     _, client = start_sim(*FAST)
+    past_the_boot_burst(client)  # SYS_AUTOSTART is one of them
     # SYS_AUTOSTART: no module of ours reads it; PX4 stores and echoes it (INT32, bytewise)
     start = len(client.history)
     wire = struct.unpack('<f', struct.pack('<i', 4001))[0]
@@ -152,6 +162,7 @@ def test_param_set_errors_as_px4s_parameter_manager(start_sim):
     (DOES_NOT_EXIST), a type other than INT32 and REAL32 (TYPE_UNSUPPORTED), the other of the two
     (TYPE_MISMATCH). A PARAM_SET for system 0 is not for PX4's parameters: no answer."""
     _, client = start_sim(*FAST)
+    past_the_boot_burst(client)
     int_wire = struct.unpack('<f', struct.pack('<i', 2))[0]
     cases = [(b'_HASH_CHECK', 1.0, REAL32, mavlink.MAV_PARAM_ERROR_READ_ONLY),
              (b'NO_SUCH_PARAM', 1.0, REAL32, mavlink.MAV_PARAM_ERROR_DOES_NOT_EXIST),
