@@ -270,3 +270,25 @@ def test_a_text_longer_than_50_characters_goes_out_in_chunks_of_one_id(rig):
                     (2, 0, mavlink.MAV_SEVERITY_INFO, 'x' * 50),
                     (2, 1, mavlink.MAV_SEVERITY_INFO, 'x' * 50),
                     (2, 2, mavlink.MAV_SEVERITY_INFO, 'x' * 26)], sent
+
+
+def test_timesync_answer_is_addressed_to_the_requester(rig):
+    """PX4's TIMESYNC answer fills MAVLink's extension fields target_system/target_component with the
+    requester's ids (recorded: 1/240 to mavros); its own requests keep 0/0. pymavlink 2.4.49 has no such
+    fields, so the test reads them from the frame: its payload's bytes 16 and 17, after tc1 and ts1."""
+    rig.run(0.2)
+    start = len(rig.got)
+    rig.send(rig.codec.timesync_encode(0, 123456789))
+    rig.run(0.02)
+    answers = [m for m in rig.of('TIMESYNC', start) if m.tc1 != 0]
+    assert len(answers) == 1 and answers[0].ts1 == 123456789
+    payload = payload_of(answers[0])
+    assert len(payload) == 18 and payload[16:18] == bytes(CLIENT), payload.hex()
+    requests = [m for m in rig.of('TIMESYNC') if m.tc1 == 0]
+    assert requests and all(len(payload_of(m)) <= 16 for m in requests), 'requests to all: no target'
+
+
+def payload_of(msg):
+    """A received MAVLink 2 frame's payload as sent (its length byte, after the 10-byte header)."""
+    frame = bytes(msg.get_msgbuf())
+    return frame[10:10 + frame[1]]

@@ -677,10 +677,11 @@ class SimulatedPx4:
                 log.error('cannot write the signing key file %s: %s', self.signing_key_file, err)
 
     def _on_timesync(self, msg):
-        """Answer a request (tc1 0) with the boot clock in ns, the clock of time_boot_ms, as PX4;
-        answers to our own requests (tc1 set) are taken silently."""
+        """Answer a request (tc1 0) with the boot clock in ns, the clock of time_boot_ms, addressed to
+        the requester, as PX4; answers to our own requests (tc1 set) are taken silently."""
         if msg.tc1 == 0:
-            self._reply(self.mav.timesync_encode(int(self.t() * 1e9), msg.ts1))
+            self._reply(telemetry.TimesyncAnswer(int(self.t() * 1e9), msg.ts1, msg.get_srcSystem(),
+                                                 msg.get_srcComponent()))
 
     def _on_ping(self, msg):
         """A PING request (target 0/0) goes back to its sender with the sender as target, as PX4's

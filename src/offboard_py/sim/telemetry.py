@@ -14,6 +14,7 @@ EVENT / CURRENT_EVENT_SEQUENCE (its event interface, whose texts live in PX4's o
 """
 
 import math
+import struct
 import time
 
 from offboard_py import dialect, px4_modes, wire
@@ -683,3 +684,19 @@ class LinkCounters:
             self.tx_rate, self.rx_rate = (tx - self._tx) / dt, (rx - self._rx) / dt
             self._since_s, self._tx, self._rx = now_s, tx, rx
         return stats
+
+
+class TimesyncAnswer(mavlink.MAVLink_timesync_message):
+    """PX4's answer to a TIMESYNC request: tc1 and ts1 and MAVLink's extension fields target_system and
+    target_component set to the requester (mavlink_timesync.cpp; recorded: PX4's answers to mavros carry
+    1/240, reference/conversations). The dialect's TIMESYNC (pymavlink 2.4.49's) has no extensions, so the
+    two bytes are appended to its payload here; a reader without them drops them, as MAVLink 2 allows."""
+
+    def __init__(self, tc1, ts1, target_system, target_component):
+        super().__init__(tc1, ts1)
+        self.target_system, self.target_component = target_system, target_component
+
+    def pack(self, mav, force_mavlink1=False):
+        payload = self.unpacker.pack(self.tc1, self.ts1) + struct.pack('<BB', self.target_system,
+                                                                         self.target_component)
+        return self._pack(mav, self.crc_extra, payload, force_mavlink1=force_mavlink1)
