@@ -31,13 +31,13 @@ CLIENT = (255, mavlink.MAV_COMP_ID_MISSIONPLANNER)
 class Rig:
     """The simulator, its clock and the test's end of the onboard link."""
 
-    def __init__(self):
+    def __init__(self, ready_delay_s=0.0):
         self.clock = ManualClock(1000.0)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(('127.0.0.1', 0))
         self.sock.setblocking(False)
         self.ap = SimulatedPx4(local_port=0, remote_port=self.sock.getsockname()[1], gcs=False,
-                               ready_delay_s=0.0, clock=self.clock)
+                               ready_delay_s=ready_delay_s, clock=self.clock)
         self.codec = mavlink.MAVLink(None, srcSystem=CLIENT[0], srcComponent=CLIENT[1])
         self.reader = mavlink.MAVLink(None)
         self.got = []  # (boot s, message) in arrival order
@@ -292,3 +292,19 @@ def payload_of(msg):
     """A received MAVLink 2 frame's payload as sent (its length byte, after the 10-byte header)."""
     frame = bytes(msg.get_msgbuf())
     return frame[10:10 + frame[1]]
+
+
+def test_home_position_from_2_4_s_after_boot_before_ready_as_px4():
+    """PX4 SITL sets home as its estimator gets a position, 2.45 and 2.33 s after boot in the two
+    recordings (HOME_POSITION.time_usec), before it is ready (about 4.4 s), and sends HOME_POSITION then
+    and every 2 s; the simulator, with PX4's 5 s to ready, did not send it before 6 s."""
+    rig = Rig(ready_delay_s=5.0)
+    try:
+        rig.run(6.5)
+        homes = [(t, m) for t, m in rig.got if m.get_type() == 'HOME_POSITION']
+        assert homes and abs(homes[0][0] - 2.4) <= 0.03, [round(t, 2) for t, _ in homes]
+        assert homes[0][1].time_usec == 2400000, 'time_usec: the boot time home was set, as PX4'
+        gaps = [b[0] - a[0] for a, b in zip(homes, homes[1:])]
+        assert len(gaps) == 2 and all(abs(g - 2.0) <= 0.03 for g in gaps), gaps
+    finally:
+        rig.close()

@@ -159,6 +159,8 @@ class SimulatedPx4:
         self.streams = {self.link: telemetry.Streams(self.t(now), telemetry.ONBOARD_RATES_HZ)}
         if self.gcs_link:
             self.streams[self.gcs_link] = telemetry.Streams(self.t(now), telemetry.GCS_RATES_HZ)
+        for streams in self.streams.values():  # HOME_POSITION as soon as home is set, then at its rate
+            streams.next_s['HOME_POSITION'] = self.t(now) + self.flight.home_first_s
         self.telemetry = telemetry.TelemetryBuilder(self.mav, self.frame, self.params)
         self.link_counters = {link: telemetry.LinkCounters(link.stats, self.t(now)) for link in self.links}
         for link, counters in self.link_counters.items():

@@ -25,6 +25,7 @@ from offboard_py.sim.vehicle import VehicleModel
 
 NAN3 = (float('nan'),) * 3
 HOVER_THRUST = 0.5  # normalised thrust that holds the vehicle (PX4's MPC_THR_HOVER default)
+HOME_SET_S = 2.4    # boot s when PX4 SITL first sets home (2.45 and 2.33 s recorded), unless ready sooner
 
 
 class Battery:
@@ -83,6 +84,7 @@ class Status(NamedTuple):
     body_rates: tuple = (0.0, 0.0, 0.0)  # FRD, rad/s: the filtered gyro (ATTITUDE's rates)
     logging: bool = True           # the logger runs (SYS_STATUS's LOGGING present/enabled bits)
     gyro: tuple = (0.0, 0.0, 0.0)        # FRD, rad/s: the gyro (HIGHRES_IMU)
+    home_set_s: float = None       # boot s when home was last set (HOME_POSITION.time_usec); None: not yet
 
     @property
     def custom_mode(self):
@@ -112,6 +114,10 @@ class Flight:
         self.offboard_sp = None
         self.battery = Battery()
         self.events = []
+        # PX4 sets home as its estimator gets a position, before it is ready: 2.45 and 2.33 s after boot
+        # in the two real-PX4 recordings (HOME_POSITION.time_usec, reference/conversations/takeoff-*-px4)
+        self.home_first_s = min(HOME_SET_S, ready_delay_s)
+        self.home_set_s = None  # then, after an arming: when it was set again
         self._set_home()
 
     def set_ideal(self, seed=None):
@@ -167,6 +173,7 @@ class Flight:
         else:
             self.home = tuple(home)
             self.navigator.home = self.home
+        self.home_set_s = now_s
         return mavlink.MAV_RESULT_ACCEPTED
 
     def start_mission(self, first_seq, now_s):
@@ -228,6 +235,7 @@ class Flight:
             elif isinstance(event, ev.ArmingChanged):
                 if event.armed:
                     self._set_home()  # PX4 sets home again at arming
+                    self.home_set_s = now_s
                     self.vehicle.start_motors(now_s)
                     n.on_armed(c.nav_mode)
                 else:
@@ -271,4 +279,11 @@ class Flight:
                       c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
-                      self.home, c.rc, rtl, v.body_rates, c.logging(now_s), v.gyro)
+                      self.home, c.rc, rtl, v.body_rates, c.logging(now_s), v.gyro, self.home_set(now_s))
+
+    def home_set(self, now_s):
+        """Boot s when home was last set, or None before PX4 would have set it (home_first_s)."""
+        if self.home_set_s is not None:
+            return self.home_set_s
+        first = self.commander.boot_s + self.home_first_s
+        return first if now_s >= first else None

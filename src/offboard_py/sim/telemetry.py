@@ -472,13 +472,14 @@ class TelemetryBuilder:
         return self.mav.extended_sys_state_encode(mavlink.MAV_VTOL_STATE_UNDEFINED, st.landed_state)
 
     def _home_position(self, st, now_s):
-        if not st.ready:  # PX4 sets home once the estimator is good
+        if st.home_set_s is None:  # PX4 sets home once its estimator has a position (sim.flight.HOME_SET_S)
             return None
-        # home is where the vehicle was armed (PX4 sets it again at arming), in both frames
+        # home is where the vehicle was armed (PX4 sets it again at arming), in both frames; time_usec is
+        # the boot time it was set at, as PX4's (2448000 and then 3792000 in the recorded conversation)
         lat, lon, alt = self.frame.to_global(*st.home)
         return self.mav.home_position_encode(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
                                              *st.home, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
-                                             int(time.time() * 1e6))
+                                             int(round(st.home_set_s * 1e6)))
 
     def _highres_imu(self, st, now_s):
         ax, ay, az = st.specific_force
