@@ -125,6 +125,11 @@ class MissionTransfer:
         """MISSION_ACK with the type of the transfer under way (or last), as PX4's send_mission_ack."""
         self._send(self.mav.mission_ack_encode(partner[0], partner[1], result, self.mission_type), link)
 
+    def _refuse(self, partner, text):
+        """PX4's text for the ground station and MISSION_ACK ERROR to `partner`."""
+        self.say(text)
+        self._ack(partner, mavlink.MAV_MISSION_ERROR)
+
     def _request(self, now_s):
         self.last_sent_s = now_s
         encode = self.mav.mission_request_int_encode if self.int_mode else self.mav.mission_request_encode
@@ -153,12 +158,10 @@ class MissionTransfer:
             elif self.transfer_seq == 0:
                 self._request(now_s)  # our first request was lost: ask again
             else:
-                self.say('WPM: REJ. CMD: Busy')
-                self._ack(self.partner, mavlink.MAV_MISSION_ERROR)
+                self._refuse(self.partner, 'WPM: REJ. CMD: Busy')
             return
         if self.state != self.IDLE:
-            self.say('WPM: IGN MISSION_COUNT: Busy')
-            self._ack(partner, mavlink.MAV_MISSION_ERROR)
+            self._refuse(partner, 'WPM: IGN MISSION_COUNT: Busy')
             return
         self.mission_type, self.partner, self.last_recv_s = mtype, partner, now_s
         if msg.count > MAX_COUNT.get(mtype, 0):
@@ -185,12 +188,10 @@ class MissionTransfer:
             if self.transfer_seq == msg.seq + 1:
                 self._ack(self.partner, mavlink.MAV_MISSION_ACCEPTED)  # the last item again: our ACK was lost
             else:
-                self.say('IGN MISSION_ITEM: No transfer')
-                self._ack(self.partner, mavlink.MAV_MISSION_ERROR)
+                self._refuse(self.partner, 'IGN MISSION_ITEM: No transfer')
             return
         if self.state != self.GETLIST:
-            self.say('IGN MISSION_ITEM: Busy')
-            self._ack(self.partner, mavlink.MAV_MISSION_ERROR)
+            self._refuse(self.partner, 'IGN MISSION_ITEM: Busy')
             return
         self.last_recv_s = now_s
         if msg.seq != self.transfer_seq:
@@ -256,18 +257,15 @@ class MissionTransfer:
         if msg.mission_type != self.mission_type:
             return
         self.last_recv_s = now_s
+        items = self.items.get(msg.mission_type, [])
         if msg.seq == self.transfer_seq and self.transfer_seq < self.transfer_count:
             self.transfer_seq += 1
-        elif msg.seq != self.transfer_seq - 1:  # neither the next item nor the last one again
+            expected = True
+        else:
+            expected = msg.seq == self.transfer_seq - 1  # the last one again
+        if not expected or msg.seq >= len(items):  # or the list changed under the download
             self._idle()
-            self._ack(self.partner, mavlink.MAV_MISSION_ERROR)
-            self.say('WPM: REJ. CMD: Req. WP was unexpected')
-            return
-        items = self.items.get(msg.mission_type, [])
-        if msg.seq >= len(items):
-            self._idle()
-            self._ack(self.partner, mavlink.MAV_MISSION_ERROR)
-            self.say('WPM: REJ. CMD: Req. WP was unexpected')
+            self._refuse(self.partner, 'WPM: REJ. CMD: Req. WP was unexpected')
             return
         self._send(self._item_message(msg, items[msg.seq]))
 
