@@ -75,19 +75,11 @@ def hostile_frames(rng, count, target):
         refused=[m.pack(v2) for m in rejected_by_px4])
 
 
-def read_param(client, name):
-    client.latest.pop('PARAM_VALUE', None)
-    client.send(client.mav.param_request_read_encode(client.target, 1, name.encode(), -1))
-    # by name: PX4 also sends PARAM_VALUEs unasked (sixteen at boot, CAL_BARO0_OFF at 5.4 s)
-    msg = client.wait_for(lambda: client.latest.get('PARAM_VALUE') if client.latest.get('PARAM_VALUE')
-                          and client.latest['PARAM_VALUE'].param_id == name else None, 3.0, 'PARAM_VALUE ' + name)
-    return msg.param_value
-
-
 def test_fuzz_changes_nothing(start_sim):
     sim, client = start_sim('--ready-delay', '1')
     client.sleep(1.2)
-    before = {name: read_param(client, name) for name in ('MIS_TAKEOFF_ALT', 'COM_OF_LOSS_T', 'COM_OBL_RC_ACT')}
+    names = ('MIS_TAKEOFF_ALT', 'COM_OF_LOSS_T', 'COM_OBL_RC_ACT')
+    before = {name: client.read_param(name).param_value for name in names}
     raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rng = random.Random(2026)
     started = client.now()
@@ -108,7 +100,7 @@ def test_fuzz_changes_nothing(start_sim):
     assert all(halves) and len(times) >= 3 * (ended - started), (
         'ATTITUDE in the first / second half of %.1f s of flood: %d / %d: the telemetry went elsewhere'
         % (ended - started, halves[0], halves[1]))
-    after = {name: read_param(client, name) for name in before}
+    after = {name: client.read_param(name).param_value for name in before}
     assert after == before, 'parameters changed: %s -> %s' % (before, after)
     client.wait_for(lambda: client.latest['HEARTBEAT'] and client.now() - started > 0, 3.0, 'heartbeat')
     client.sleep(1.2)

@@ -98,9 +98,7 @@ def test_allow_list_takes_commands_from_listed_systems_only(start_sim):
         client.sleep(0.02)
     assert not client.armed()
     # reading is open to anyone
-    client.send(client.mav.param_request_read_encode(client.target, 1, b'COM_OF_LOSS_T', -1))
-    client.wait_for(lambda: client.latest.get('PARAM_VALUE') if client.latest.get('PARAM_VALUE')
-                    and client.latest['PARAM_VALUE'].param_id == 'COM_OF_LOSS_T' else None, 3.0, 'PARAM_VALUE')
+    client.read_param('COM_OF_LOSS_T')
     # system 42 is listed (its ACK comes back to the same socket)
     gcs = mavlink2.MAVLink(None, srcSystem=42, srcComponent=GCS_COMPONENT)
     start = len(client.acks)

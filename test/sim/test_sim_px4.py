@@ -159,7 +159,7 @@ def failsafe_delay(client, mode):
 
 def test_failsafe_without_rc_is_return_and_lands(start_sim):
     _, client = start_sim(*FAST)
-    loss_t = read_param(client, 'COM_OF_LOSS_T').param_value  # PX4 SITL: 1.0 s
+    loss_t = client.read_param('COM_OF_LOSS_T').param_value  # PX4 SITL: 1.0 s
     client.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'AUTO.RTL')
@@ -188,7 +188,7 @@ def test_failsafe_without_rc_is_return_and_lands(start_sim):
 
 def test_failsafe_with_rc_holds_position(start_sim):
     _, client = start_sim('--rc', *FAST)
-    loss_t = read_param(client, 'COM_OF_LOSS_T').param_value  # PX4 SITL: 1.0 s
+    loss_t = client.read_param('COM_OF_LOSS_T').param_value  # PX4 SITL: 1.0 s
     client.sleep(1.2)
     fly_offboard_to_2m(client)
     delay = failsafe_delay(client, 'POSCTL')  # COM_OBL_RC_ACT 0 (Position) applies with RC
@@ -251,31 +251,24 @@ def test_takeoff_and_land_commands(start_sim):
     assert client.command(mavlink.MAV_CMD_WAYPOINT_USER_1)[0] == UNSUPPORTED
 
 
-def read_param(client, name, timeout_s=2.0):
-    client.latest.pop('PARAM_VALUE', None)
-    client.send(client.mav.param_request_read_encode(client.target, 1, name.encode(), -1))
-    return client.wait_for(lambda: client.latest.get('PARAM_VALUE') if client.latest.get('PARAM_VALUE')
-                           and client.latest['PARAM_VALUE'].param_id == name else None, timeout_s, 'PARAM_VALUE ' + name)
-
-
 def test_param_get_set_float_and_int(start_sim):
     import struct
     _, client = start_sim(*FAST)
-    value = read_param(client, 'MIS_TAKEOFF_ALT')
+    value = client.read_param('MIS_TAKEOFF_ALT')
     assert value.param_type == REAL32 and value.param_value == 2.5
     client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 3.5, REAL32))
-    client.wait_for(lambda: read_param(client, 'MIS_TAKEOFF_ALT').param_value == 3.5, 3.0, 'MIS_TAKEOFF_ALT=3.5')
-    value = read_param(client, 'COM_OBL_RC_ACT')
+    client.wait_for(lambda: client.read_param('MIS_TAKEOFF_ALT').param_value == 3.5, 3.0, 'MIS_TAKEOFF_ALT=3.5')
+    value = client.read_param('COM_OBL_RC_ACT')
     assert value.param_type == INT32
     assert struct.unpack('<i', struct.pack('<f', value.param_value))[0] == 0, 'INT32 is sent bytewise'
     wire = struct.unpack('<f', struct.pack('<i', 4))[0]
     client.send(client.mav.param_set_encode(client.target, 1, b'COM_OBL_RC_ACT', wire, INT32))
-    client.wait_for(lambda: struct.unpack('<i', struct.pack('<f', read_param(client, 'COM_OBL_RC_ACT').param_value))[0]
+    client.wait_for(lambda: struct.unpack('<i', struct.pack('<f', client.read_param('COM_OBL_RC_ACT').param_value))[0]
                     == 4, 3.0, 'COM_OBL_RC_ACT=4')
     # out of range: refused, the value in force is echoed
     client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 1000.0, REAL32))
     client.sleep(0.3)
-    assert read_param(client, 'MIS_TAKEOFF_ALT').param_value == 3.5
+    assert client.read_param('MIS_TAKEOFF_ALT').param_value == 3.5
     # the whole list
     names = set()
     client.send(client.mav.param_request_list_encode(client.target, 1))

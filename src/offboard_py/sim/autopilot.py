@@ -85,6 +85,16 @@ REQUESTED_BY_COMMAND = {mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_I
                         mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION: mavlink.MAVLINK_MSG_ID_PROTOCOL_VERSION}
 
 
+def command_position(msg):
+    """(param5, param6, param7) as PX4's receiver puts a COMMAND_LONG or COMMAND_INT into its vehicle
+    command: COMMAND_INT's x and y in 1e-7 deg, both INT32_MAX meaning "not given" (NaN), z as param7."""
+    if msg.get_type() != 'COMMAND_INT':
+        return msg.param5, msg.param6, msg.param7
+    if msg.x == msg.y == 0x7FFFFFFF:
+        return math.nan, math.nan, msg.z
+    return msg.x / 1e7, msg.y / 1e7, msg.z
+
+
 def c_int_round(value):
     """(int)(value + 0.5f) as PX4's receiver reads a message id from a float parameter; None where C
     leaves it undefined (NaN, infinities, out of int's range)."""
@@ -412,8 +422,7 @@ class SimulatedPx4:
                                           now)
 
     def _cmd_takeoff(self, msg, now):
-        altitude = msg.z if msg.get_type() == 'COMMAND_INT' else msg.param7
-        return self.flight.takeoff(altitude, self.frame.alt0, now)
+        return self.flight.takeoff(command_position(msg)[2], self.frame.alt0, now)
 
     def _cmd_reposition(self, msg, now):
         """DO_REPOSITION (MAVSDK's goto_location, QGroundControl's "go to location"): param2 must ask
@@ -423,10 +432,7 @@ class SimulatedPx4:
         flags = int(msg.param2) if math.isfinite(msg.param2) else 0
         if not flags & 1 or flags & ~1:
             return UNSUPPORTED
-        if msg.get_type() == 'COMMAND_INT':
-            lat, lon, alt = msg.x / 1e7, msg.y / 1e7, msg.z
-        else:
-            lat, lon, alt = msg.param5, msg.param6, msg.param7
+        lat, lon, alt = command_position(msg)
         v = self.flight.vehicle
         north, east, down = v.position
         if math.isfinite(lat) and math.isfinite(lon):
@@ -464,12 +470,7 @@ class SimulatedPx4:
             return DENIED
         if msg.param1 > 0.5:
             return self.flight.set_home(None, now)
-        if msg.get_type() == 'COMMAND_INT':
-            unset = msg.x == msg.y == 0x7FFFFFFF  # INT32_MAX: no position given
-            lat, lon = (math.nan, math.nan) if unset else (msg.x / 1e7, msg.y / 1e7)
-            alt = msg.z
-        else:
-            lat, lon, alt = msg.param5, msg.param6, msg.param7
+        lat, lon, alt = command_position(msg)
         if not all(map(math.isfinite, (lat, lon, alt))):
             return DENIED
         return self.flight.set_home(self.frame.to_local(lat, lon, alt), now)
@@ -483,7 +484,8 @@ class SimulatedPx4:
         MavlinkReceiver::set_message_interval's reading: the id is (int)(param1 + 0.5); param3, param4
         and param7 (the response target) must round to 0; an interval within 1e-5 us of 0, or NaN,
         is the stream's default, a negative one stops it."""
-        if not all(not math.isfinite(p) or int(p + 0.5) == 0 for p in (msg.param3, msg.param4, self._param7(msg))):
+        unsupported = (msg.param3, msg.param4, command_position(msg)[2])  # param7: the response target
+        if not all(not math.isfinite(p) or int(p + 0.5) == 0 for p in unsupported):
             return FAILED
         msg_id = c_int_round(msg.param1)
         interval = msg.param2
@@ -491,10 +493,6 @@ class SimulatedPx4:
             interval = 0  # the default rate
         ok = msg_id is not None and self.streams[self.reply_link].set_interval(msg_id, interval, now)
         return ACCEPTED if ok else FAILED
-
-    @staticmethod
-    def _param7(msg):
-        return msg.z if msg.get_type() == 'COMMAND_INT' else msg.param7
 
     def _cmd_get_message_interval(self, msg, now):
         """MESSAGE_INTERVAL for (int)(param1 + 0.5): a stream not running on this link is -1, as PX4
@@ -607,10 +605,7 @@ class SimulatedPx4:
             names = [pending.popleft() for _ in range(min(PARAM_LIST_BATCH, len(pending)))]
             msgs = [self._hash_check() if name == sim_params.HASH_CHECK_NAME else self._param_value(name)
                     for name in names]
-            if out is None:
-                link.send_many(msgs)
-            else:
-                out.setdefault(link, []).extend(msgs)
+            self._send_on(link, msgs, out)
             if not pending:
                 del self.param_lists[link]
 
@@ -724,20 +719,22 @@ class SimulatedPx4:
                 if now - said < STATUSTEXT_STALE_S:
                     msgs = self.telemetry.statustext(severity, text, self.text_ids[link])
                     self.text_ids[link] = (self.text_ids[link] + 1) % 65536  # PX4's uint16_t _id
-                    if out is None:
-                        link.send_many(msgs)
-                    else:
-                        out.setdefault(link, []).extend(msgs)
+                    self._send_on(link, msgs, out)
                     self.text_sent[link] = now
                     break
 
+    @staticmethod
+    def _send_on(link, msgs, out=None):
+        """msgs into out[link], to go out with the wake-up's cycles, or at once when `out` is None."""
+        if out is None:
+            link.send_many(msgs)
+        else:
+            out.setdefault(link, []).extend(msgs)
+
     def _send_everywhere(self, msgs, out=None):
-        """What PX4 sends on every link of its own accord: into out[link] with the cycle, or at once."""
+        """What PX4 sends on every link of its own accord, with the cycle (_send_on)."""
         for link in self.links:
-            if out is None:
-                link.send_many(msgs)
-            else:
-                out.setdefault(link, []).extend(msgs)
+            self._send_on(link, msgs, out)
 
     def _say_events(self):
         """What the flight stack said, on the link."""

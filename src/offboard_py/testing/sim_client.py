@@ -283,6 +283,17 @@ class Client:
         self.send(self.mav.command_int_encode(self.target, 1, frame, command, 0, 0, *params, x, y, z))
         return self._first_ack(start, command, timeout_s)
 
+    def read_param(self, name, timeout_s=3.0):
+        """PARAM_REQUEST_READ by name; the PARAM_VALUE of that name that answers it (PX4 also sends
+        PARAM_VALUEs unasked: sixteen at boot, CAL_BARO0_OFF at 5.4 s, every change)."""
+        self.latest.pop('PARAM_VALUE', None)
+        self.send(self.mav.param_request_read_encode(self.target, 1, name.encode(), -1))
+
+        def answer():
+            value = self.latest.get('PARAM_VALUE')
+            return value if value is not None and value.param_id == name else None
+        return self.wait_for(answer, timeout_s, 'PARAM_VALUE ' + name)
+
     def set_mode(self, mode, timeout_s=3.0):
         """SET_MODE message, as mavros sends it; returns the result of the COMMAND_ACK(DO_SET_MODE)."""
         start = len(self.acks)
