@@ -255,7 +255,7 @@ class Flight:
         c, v = self.commander, self.vehicle
         if v.landed:
             return mavlink.MAV_LANDED_STATE_ON_GROUND
-        if c.nav_mode == 'AUTO.TAKEOFF':
+        if self.navigator.taking_off(c.nav_mode):
             return mavlink.MAV_LANDED_STATE_TAKEOFF
         if self.navigator.landing(c.nav_mode):
             return mavlink.MAV_LANDED_STATE_LANDING

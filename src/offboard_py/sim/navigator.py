@@ -106,6 +106,11 @@ class NavigatorMode:
     def landing(self):
         return False
 
+    def taking_off(self):
+        """A TAKEOFF setpoint is flown (EXTENDED_SYS_STATE TAKEOFF, as PX4's stream derives it from
+        the current position setpoint's type)."""
+        return False
+
 
 class Loiter(NavigatorMode):
     """AUTO.LOITER, and any mode without a setpoint of its own: hold where the mode began (after a
@@ -158,6 +163,9 @@ class Takeoff(NavigatorMode):
             nav.loiter.after_takeoff = self.target  # PX4 loiters at the takeoff altitude
             return nav.flyer.direct(vm.hold(self.target, nav.hold_yaw))
         return nav.flyer.take_off(v, self.target, now_s)
+
+    def taking_off(self):
+        return True
 
 
 class Land(NavigatorMode):
@@ -222,7 +230,7 @@ class Rtl(NavigatorMode):
         return f.direct(land_setpoint(p, (home[0], home[1]), v))
 
 
-class Mission(NavigatorMode):
+class MissionMode(NavigatorMode):
     """AUTO.MISSION: fly the mission's items (MissionRunner), reporting those reached."""
 
     def on_activation(self):
@@ -235,11 +243,20 @@ class Mission(NavigatorMode):
         if not armed:
             return super().setpoint(armed, now_s)
         sp = nav.mission.setpoint(nav.vehicle, now_s)
+        for severity, text in nav.mission.texts:
+            nav.events.append(ev.StatusText(severity, text))
+        nav.mission.texts.clear()
         for seq in nav.mission.take_reached():
             nav.events.append(ev.ItemReached(seq))
             if not nav.mission.finished:
                 nav.events.append(ev.MissionCurrent(nav.mission.seq))
         return sp
+
+    def landing(self):
+        return self.nav.mission.landing()
+
+    def taking_off(self):
+        return self.nav.mission.taking_off()
 
 
 class Navigator:
@@ -260,7 +277,7 @@ class Navigator:
         land = Land(self)
         # AUTO.PRECLAND with no landing target in sight lands where it is, as PX4's precland falls back
         self.modes = {'AUTO.LOITER': self.loiter, 'AUTO.TAKEOFF': self.takeoff, 'AUTO.LAND': land,
-                      'AUTO.PRECLAND': land, 'AUTO.RTL': self.rtl, 'AUTO.MISSION': Mission(self)}
+                      'AUTO.PRECLAND': land, 'AUTO.RTL': self.rtl, 'AUTO.MISSION': MissionMode(self)}
         self.hold = NavigatorMode(self)  # the modes without a setpoint of their own
         self.active = self.hold
         self._idle_sent = False  # the return's idle item went out for this landing
@@ -363,6 +380,10 @@ class Navigator:
     def landing(self, mode):
         """Whether the vehicle is landing in `mode` (EXTENDED_SYS_STATE's LANDING)."""
         return self.modes.get(mode, self.hold).landing()
+
+    def taking_off(self, mode):
+        """Whether the vehicle is taking off in `mode` (EXTENDED_SYS_STATE's TAKEOFF)."""
+        return self.modes.get(mode, self.hold).taking_off()
 
     # -- the setpoint ------------------------------------------------------------------------
 
