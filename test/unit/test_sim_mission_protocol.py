@@ -89,6 +89,9 @@ def test_a_completed_upload_and_the_last_item_again(rig):
     (waypoint(0, command=31999), M.MAV_MISSION_UNSUPPORTED),
     (waypoint(0, frame=M.MAV_FRAME_MISSION), M.MAV_MISSION_UNSUPPORTED),  # a waypoint needs coordinates
     (waypoint(0, command=M.MAV_CMD_NAV_RALLY_POINT), M.MAV_MISSION_ERROR),  # not in a mission
+    # SDKs append NAV_RETURN_TO_LAUNCH; in a global frame PX4 answered MISSION_ACK 3 and kept no mission
+    # (reference/px4-sitl-measured.md, "Turn 4 recordings" item 1): only MAV_FRAME_MISSION carries it
+    (waypoint(0, command=M.MAV_CMD_NAV_RETURN_TO_LAUNCH), M.MAV_MISSION_UNSUPPORTED),
 ])
 def test_items_px4_cannot_parse_end_the_upload(rig, item, result):
     rig.receive(count(2), 0.0)

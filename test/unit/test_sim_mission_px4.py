@@ -198,3 +198,142 @@ def test_a_mission_started_in_the_air_above_the_items_altitude_takes_no_takeoff(
         texts += [e.text for e in f.take_events() if isinstance(e, ev.StatusText)]
     assert states == {M.MAV_LANDED_STATE_IN_AIR}, states
     assert not any(text.startswith('Takeoff to') for text in texts), texts
+
+
+# -- the rest of what a ground station's mission reaches (PX4's rules at 02e73e3b6f, read from its source) --
+
+HOME = (47.397742, 8.545594, 488.0)
+
+
+def gcs_mission_flight(items, **params):
+    """A flight with `items` ((command, north_m, east_m, relative_alt_m, param1, param2) or, for MAV_FRAME_MISSION
+    items, (command, param1, param2)) loaded as a ground station uploads them, in AUTO.MISSION and armed at t=0."""
+    frame = LocalFrame(*HOME)
+    f = Flight(ParamStore(params), frame, 0.0, ready_delay_s=0.0)
+    stored = []
+    for it in items:
+        if len(it) == 3:
+            command, p1, p2 = it
+            stored.append(Item(M.MAV_FRAME_MISSION, command, 1, p1, p2, 0.0, 0.0, 0.0, 0.0, 0.0))
+        else:
+            command, north, east, alt, p1, p2 = it
+            lat, lon, _ = frame.to_global(north, east, 0.0)
+            stored.append(Item(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command, 1, p1, p2, 0.0, NAN, lat, lon, alt))
+    f.load_mission(stored)
+    assert f.request_mode('AUTO.MISSION', 0.0) == M.MAV_RESULT_ACCEPTED
+    assert f.request_arming(True, False, 0.0) == M.MAV_RESULT_ACCEPTED
+    return f
+
+
+class Recorder:
+    """Steps a flight, keeping the reached items, the MISSION_CURRENT seqs and the samples."""
+
+    def __init__(self, f):
+        self.f, self.t, self.reached, self.current, self.samples = f, 0.0, {}, [], []
+
+    def run(self, seconds=None, until=None, limit_s=200.0):
+        end = self.t + (seconds if seconds is not None else limit_s)
+        while self.t < end:
+            self.t += DT
+            self.f.step(self.t, DT)
+            for e in self.f.take_events():
+                if isinstance(e, ev.ItemReached):
+                    self.reached.setdefault(e.seq, self.t)
+                elif isinstance(e, ev.MissionCurrent):
+                    self.current.append(e.seq)
+            v = self.f.vehicle
+            self.samples.append((self.t, tuple(v.position), tuple(v.velocity), self.f.commander.nav_mode))
+            if until is not None and until(self):
+                return self
+        assert until is None, 'not within %.0f s: reached %s, at %s' % (limit_s, self.reached, self.f.vehicle.position)
+        return self
+
+
+WP, LOITER_TIME, LAND = M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LAND
+
+
+def test_do_change_speed_sets_the_legs_ground_speed():
+    """navigator_main.cpp, VEHICLE_CMD_DO_CHANGE_SPEED: param2 > 0 is the cruising speed of what follows
+    (FlightTaskAuto flies the triplet's cruising_speed); param2 -1 restores MPC_XY_CRUISE."""
+    def peak(items):
+        r = Recorder(gcs_mission_flight(items)).run(until=lambda r: len(items) - 1 in r.reached)
+        return max((v[0] ** 2 + v[1] ** 2) ** 0.5 for _, _, v, _ in r.samples)
+    plain = peak([(WP, 60, 0, 10, 0, 0), (WP, 60, 0, 10, 0, 0)])
+    slow = peak([(M.MAV_CMD_DO_CHANGE_SPEED, 1, 2.0), (WP, 60, 0, 10, 0, 0), (WP, 60, 0, 10, 0, 0)])
+    reset = peak([(M.MAV_CMD_DO_CHANGE_SPEED, 1, 2.0), (M.MAV_CMD_DO_CHANGE_SPEED, 1, -1.0), (WP, 60, 0, 10, 0, 0),
+                  (WP, 60, 0, 10, 0, 0)])
+    cruise = ParamStore({})['MPC_XY_CRUISE']
+    assert plain == pytest.approx(cruise, abs=0.6), 'MPC_XY_CRUISE without a change'
+    assert slow == pytest.approx(2.0, abs=0.4), 'DO_CHANGE_SPEED 2 m/s: peak %.2f' % slow
+    assert reset == pytest.approx(plain, abs=0.3), 'param2 -1 restores MPC_XY_CRUISE'
+
+
+def test_nav_loiter_time_holds_at_its_point_for_param1_seconds():
+    """mission_block.cpp is_mission_item_reached_or_completed: NAV_LOITER_TIME is done time_inside
+    (param1) seconds after its position was reached; PX4 brakes there (Mission::setActiveMissionItems,
+    brake_for_hold) and holds."""
+    r = Recorder(gcs_mission_flight([(LOITER_TIME, 20, 0, 5, 6.0, 0), (WP, 20, 20, 5, 0, 0)]))
+    r.run(until=lambda r: 0 in r.reached)
+    arrived = next(t for t, p, _, _ in r.samples if abs(p[0] - 20) <= 2.0 and abs(p[2] + 5) <= 0.8)
+    assert r.reached[0] - arrived == pytest.approx(6.0, abs=0.1)
+    held = [p for t, p, _, _ in r.samples if t >= arrived + 1.5]
+    assert all(abs(p[0] - 20) < 1.0 and abs(p[1]) < 1.0 for p in held), 'held over the loiter point'
+
+
+def test_return_to_launch_as_the_last_item_flies_home_and_lands():
+    """SDKs append NAV_RETURN_TO_LAUNCH (in MAV_FRAME_MISSION: the upload of one in a global frame is
+    refused, test_sim_mission_protocol): home, land, the item reached on the ground, disarmed."""
+    r = Recorder(gcs_mission_flight([(WP, 25, 0, 8, 0, 0), (M.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0)]))
+    r.run(until=lambda r: not r.f.commander.armed, limit_s=90.0)
+    assert sorted(r.reached) == [0, 1]
+    final = r.samples[-1][1]
+    assert (final[0] ** 2 + final[1] ** 2) ** 0.5 < 2.0 and r.f.vehicle.landed
+
+
+def test_pause_in_loiter_and_resume_at_the_current_item():
+    """Switching to AUTO.LOITER mid-mission holds (loiter.cpp); AUTO.MISSION again continues at the current
+    item (MissionBase::on_activation keeps mission.current_seq), not at the start."""
+    r = Recorder(gcs_mission_flight([(WP, 20, 0, 6, 0, 0), (WP, 20, 40, 6, 0, 0), (WP, 0, 40, 6, 0, 0)]))
+    r.run(until=lambda r: 0 in r.reached)
+    r.run(seconds=3.0)
+    assert r.f.request_mode('AUTO.LOITER', r.t) == M.MAV_RESULT_ACCEPTED
+    r.run(seconds=8.0)
+    paused = r.samples[-1][1]
+    r.run(seconds=5.0)
+    assert all(abs(p[1] - paused[1]) < 0.5 for _, p, _, _ in r.samples[-250:]), 'paused: holds'
+    assert 5.0 < paused[1] < 35.0, 'stopped on the leg to item 1 (east %.1f)' % paused[1]
+    assert r.f.request_mode('AUTO.MISSION', r.t) == M.MAV_RESULT_ACCEPTED
+    r.current.clear()
+    r.run(until=lambda r: 2 in r.reached)
+    assert r.current[0] == 1, 'resumed at item 1: MISSION_CURRENT %s' % r.current
+    assert r.reached[1] < r.reached[2]
+
+
+def test_mission_set_current_jumps_to_the_item():
+    """MISSION_SET_CURRENT -> Mission::set_current_mission_index: the active mission flies the new item
+    next; the skipped one is never reported."""
+    r = Recorder(gcs_mission_flight([(WP, 0, 0, 6, 0, 0), (WP, 30, 0, 6, 0, 0), (WP, 0, 30, 6, 0, 0)]))
+    r.run(until=lambda r: 0 in r.reached)
+    assert r.f.set_mission_current(2)
+    r.run(until=lambda r: 2 in r.reached)
+    assert 1 not in r.reached
+    assert max(p[0] for t, p, _, _ in r.samples if t > r.reached[0]) < 3.0, 'never flew north to item 1'
+    assert not r.f.set_mission_current(7), 'an item the mission does not have is refused'
+
+
+def test_a_mission_uploaded_while_flying_is_flown_from_its_first_item():
+    """A new upload in AUTO.MISSION (MissionBase::onMissionUpdate with the upload's current_seq 0): the new
+    items from the first, in the air and above the takeoff altitude so without a takeoff."""
+    r = Recorder(gcs_mission_flight([(WP, 0, 0, 6, 0, 0), (WP, 40, 0, 6, 0, 0)]))
+    r.run(until=lambda r: 0 in r.reached)
+    r.run(seconds=2.0)
+    frame = LocalFrame(*HOME)
+    lat, lon, _ = frame.to_global(0.0, -25.0, 0.0)
+    r.reached.clear()
+    r.current.clear()
+    r.f.load_mission([Item(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, WP, 1, 0.0, 0.0, 0.0, NAN, lat, lon, 6.0)])
+    r.run(until=lambda r: 0 in r.reached)
+    assert r.current[:1] == [0]
+    final = r.samples[-1][1]
+    assert abs(final[1] + 25.0) < 3.0 and final[0] < 15.0, 'flew to the new item (at %s)' % (final,)
+    assert r.f.landed_state() == M.MAV_LANDED_STATE_IN_AIR

@@ -55,9 +55,11 @@ class MissionRunner:
         self._land_reported = False  # the landing item was reported reached over its point
         self._need_takeoff = True  # MissionBase's _need_takeoff: owed at the start and after a landing
         self.texts = []          # (MAV_SEVERITY, text) for the pilot, taken by the navigator
+        self.cruise_speed = None  # m/s a DO_CHANGE_SPEED set for the legs; None: MPC_XY_CRUISE
 
     def load(self, items, seq=0):
         self.items, self.seq, self.finished, self.landed_at_end = list(items), seq, False, False
+        self.cruise_speed = None
         self._arrived_s = self._hold_point = self._previous = None
         self._enter()
 
@@ -124,6 +126,7 @@ class MissionRunner:
         for _ in range(len(self.items)):  # pass over DO_* items in one go
             if self.finished or not self.items or self.items[self.seq].command in NAV_COMMANDS:
                 break
+            self._do(self.items[self.seq])
             self._advance()
         if self.finished or not self.items:
             if self._hold_point is None:
@@ -151,11 +154,22 @@ class MissionRunner:
             hold_s = 0.0
         corner = 0.0 if hold_s is None or hold_s > 0.0 else corner_speed(p, self._previous, target,
                                                                          self._next_target(vehicle))
+        if self.cruise_speed is not None:
+            corner = min(corner, self.cruise_speed)
         if self._reached(target, radius, vehicle) and self._arrived_s is None:
             self._arrived_s = now_s
         if self._arrived_s is not None and hold_s is not None and now_s - self._arrived_s >= hold_s:
             self._advance(vehicle)
-        return self.flyer.fly_to(vehicle, target, now_s, speed_at_target=corner)
+        return self.flyer.fly_to(vehicle, target, now_s, speed_at_target=corner, xy_speed=self.cruise_speed)
+
+    def _do(self, it):
+        """A DO_* item, passed over at once (MissionBlock::is_mission_item_reached_or_completed) after it
+        was issued as a vehicle command. DO_CHANGE_SPEED as navigator_main.cpp takes it: param2 > 0 is the
+        cruise speed of the following legs (ground and air speed alike), anything else restores
+        MPC_XY_CRUISE; FlightTaskAuto keeps the speed within MPC_XY_VEL_MAX."""
+        if it.command == mavlink.MAV_CMD_DO_CHANGE_SPEED:
+            speed = it.param2
+            self.cruise_speed = min(speed, self.params['MPC_XY_VEL_MAX']) if speed > 1.2e-7 else None
 
     def _reached(self, target, radius, vehicle):
         pos = vehicle.position
@@ -194,7 +208,7 @@ class MissionRunner:
         ground when no move was needed (MissionBlock::is_mission_item_reached_or_completed, NAV_CMD_LAND)."""
         if self.work == MOVE_TO_LAND:
             if not self._reached(self._work_target, self.params['NAV_ACC_RAD'], vehicle):
-                return self.flyer.fly_to(vehicle, self._work_target, now_s)
+                return self.flyer.fly_to(vehicle, self._work_target, now_s, xy_speed=self.cruise_speed)
             self.reached.append(self.seq)
             self._land_reported = True
         self.work = LAND
