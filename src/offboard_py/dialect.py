@@ -17,8 +17,8 @@ the two cannot drift apart. Change the XML, then run `python -m offboard_py.dial
 Every module that names a MAVLink message, command, enum value or bit does it through
 `mavlink.<NAME>` from here (`mavlink.MAV_CMD_NAV_LAND`, `mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE`,
 `mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO`), never as a number, and builds and parses frames with the
-same module. Importing this module gives the dialect's messages a faster packer for unsigned MAVLink 2
-frames (the same bytes as pymavlink's; see "packing" below); pymavlink's own modules are left alone.
+same module. Importing it changes nothing of pymavlink's or of the generated module: `frame_v2` is a faster
+way to frame an unsigned MAVLink 2 message that our own send path calls (offboard_py.wire.Outgoing).
 """
 
 import logging
@@ -55,19 +55,15 @@ HIGHRES_IMU_UPDATED_TEMPERATURE = 0x1000
 ARM_DISARM_FORCE_MAGIC = 21196
 
 
-# -- packing ----------------------------------------------------------------------------------
-# pymavlink's MAVLink_message._pack, under every generated msg.pack(mav), parses the wire protocol's
-# version string twice, builds a header object and a CRC object and copies the frame twice for each
-# frame, and the simulated PX4 packs about 765 frames a second per vehicle (PX4's onboard and GCS
-# streams). For an unsigned MAVLink 2 frame, _pack_v2 makes the same bytes and leaves the same state on
-# the message (_header, _payload, _crc, _msgbuf): an ATTITUDE packs in 1.4-2.0 us against 2.9-4.0 us,
-# and 8 simulated vehicles cost 8-14 % less CPU (2026-11-25, side by side, bench/results). MAVLink 1
-# and signed frames, and a pymavlink without its C CRC, keep pymavlink's own. test_wire holds the two
-# byte for byte on every message of the dialect.
+# -- framing ----------------------------------------------------------------------------------
+# pymavlink's msg.pack(mav) parses the wire protocol's version string twice, builds a header object and a CRC
+# object and copies the frame twice for each frame, and the simulated PX4 sends about 765 frames a second per
+# vehicle. frame_v2 makes the same bytes from a message's payload (test_wire holds them to pymavlink's pack on
+# every message of the dialect); the streams call it through offboard_py.wire. Anything else is packed by
+# pymavlink as installed.
 _HEADER_V2_AFTER_MAGIC = struct.Struct('<BBBBBBHB')  # len, incompat, compat, seq, sys, comp, msgid (3 bytes)
 _MAGIC_V2 = bytes((mavlink.PROTOCOL_MARKER_V2,))
 _CRC = struct.Struct('<H')
-_PYMAVLINK_PACK = mavlink.MAVLink_message._pack
 
 
 def frame_v2(msg_id, crc_extra, payload, seq, system, component):
@@ -81,21 +77,9 @@ def frame_v2(msg_id, crc_extra, payload, seq, system, component):
     return _MAGIC_V2 + checked + _CRC.pack(crc), payload, crc
 
 
-def _pack_v2(self, mav, crc_extra, payload, force_mavlink1=False):
-    if force_mavlink1 or mav.signing.sign_outgoing:
-        return _PYMAVLINK_PACK(self, mav, crc_extra, payload, force_mavlink1)
-    msg_id, seq, system, component = self._header.msgId, mav.seq, mav.srcSystem, mav.srcComponent
-    frame, self._payload, self._crc = frame_v2(msg_id, crc_extra, payload, seq, system, component)
-    self._header = mavlink.MAVLink_header(msg_id, 0, 0, len(self._payload), seq, system, component)
-    self._msgbuf = bytearray(frame)
-    return frame
-
-
 _CRC_EXTRA_BYTES = [bytes((extra,)) for extra in range(256)]
 # Whether frame_v2 can be used: pymavlink's C CRC is there and the dialect speaks MAVLink 2
 FAST_FRAMES = mavlink.mcrf4xx is not None and mavlink.WIRE_PROTOCOL_VERSION == '2.0'
-if FAST_FRAMES:
-    mavlink.MAVLink_message._pack = _pack_v2
 
 
 def pymavlink_version():

@@ -412,8 +412,8 @@ class MavlinkLink:
 
         Only the frames of message types a handler reads are decoded (wire.decode: pymavlink's
         decode); the others are CRC-checked and counted, as the MAVLink C
-        library frames what it does not use. With signing on, every frame goes through
-        pymavlink's decode: its signature decides whether it counts."""
+        library frames what it does not use. With signing on, every frame is decoded once
+        its signature has been checked (offboard_py.signing: PX4's rules, not pymavlink's)."""
         self.stats['datagrams'] += 1
         self.stats['bytes_received'] += len(data)
         policy = self.remote_policy
@@ -433,6 +433,7 @@ class MavlinkLink:
         handlers = self.handlers
         # what to call, in the frames' order: (handlers, message) or (raw hooks, frame)
         messages, dispatch, undecoded, bad, foreign, dropped, from_peer = [], [], 0, 0, 0, 0, peer is None
+        signed_in = False  # a frame with a good signature came in this datagram
         for msg_id, frame in wire.split(data):
             if msg_id is None:
                 bad += 1
@@ -449,11 +450,19 @@ class MavlinkLink:
                     bad += 1
                 continue
             if decode_all:
+                if not wire.crc_ok(msg_id, frame):
+                    bad += 1
+                    continue
+                admitted, good_signature = self.signing.admit(frame, msg_id)
+                if not admitted:
+                    bad += 1
+                    continue
                 try:
-                    msg = self.mav.decode(bytearray(frame))
+                    msg = wire.decode_checked(frame)
                 except Exception:  # pymavlink raises assorted errors on hostile bytes
                     bad += 1
                     continue
+                signed_in = signed_in or good_signature
                 if msg_id in raw_hooks:
                     dispatch.append((raw_hooks[msg_id], frame))
                 messages.append(msg)
@@ -499,7 +508,9 @@ class MavlinkLink:
                 self.on_datagram(data)  # passed on raw (to a GCS) as before, but it moves nothing
             return
         self.last_receive_s = time.monotonic()
-        if sender is not None and from_peer and self.signing.may_move_remote(messages):
+        # with signing on, only a signed frame may move the learned remote (an unsigned RADIO_STATUS is let in,
+        # not followed)
+        if sender is not None and from_peer and (signed_in or not self.signing.active):
             policy.heard(sender)  # before dispatch: under mavconn's rule replies go to whoever asked
         if self.on_datagram is not None:
             self.on_datagram(data)

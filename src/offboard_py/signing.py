@@ -21,6 +21,8 @@ import time
 
 from offboard_py.dialect import mavlink
 
+MAGIC_V2, IFLAG_SIGNED = mavlink.PROTOCOL_MARKER_V2, mavlink.MAVLINK_IFLAG_SIGNED
+
 # Timestamps count 10 us units since 2015-01-01 00:00:00 UTC.
 SIGNING_EPOCH_UNIX_S = 1420070400
 SIGNING_KEY_LENGTH = 32
@@ -75,7 +77,6 @@ class LinkSigning:
         self.mav, self._send_lock, self.stats = mav, send_lock, stats
         self.required = False
         self._streams = {}  # (link_id, sysid, compid) -> last accepted timestamp
-        self._failed = False
 
     @property
     def active(self):
@@ -91,15 +92,13 @@ class LinkSigning:
             s.link_id = link_id
             s.timestamp = max(timestamp, signing_timestamp_now())
             s.sign_outgoing = True
-            s.allow_unsigned_callback = self._accept_unsigned
-        self.mav.check_signature = self._check_signature
         self.required = required
         self._streams.clear()
 
     def disable(self):
         s = self.mav.signing
         with self._send_lock:
-            s.secret_key, s.sign_outgoing, s.allow_unsigned_callback = None, False, None
+            s.secret_key, s.sign_outgoing = None, False
         self.required = False
 
     def stamp_outgoing(self):
@@ -108,16 +107,31 @@ class LinkSigning:
         if s.sign_outgoing:
             s.timestamp = max(s.timestamp, signing_timestamp_now())
 
-    def may_move_remote(self, messages):
-        """With signing on, only a signed frame may move a link's learned remote (an unsigned
-        RADIO_STATUS is let in, not followed)."""
-        return not self.active or any(m._signed for m in messages)
+    def admit(self, frame, msg_id):
+        """Whether a received frame (CRC checked) is let in, and whether it came with a good signature:
+        (admitted, signed). The link checks every frame here before pymavlink decodes it (with no key:
+        pymavlink's own check, whose replay rule is not PX4's, never runs). Without signing everything is
+        admitted; with it a frame with a good signature is, and any other only when signing is not
+        required or it is one MAVLink lets in unsigned (RADIO_STATUS)."""
+        if not self.active:
+            return True, False
+        if frame[0] == MAGIC_V2 and frame[2] & IFLAG_SIGNED:
+            if self._check_signature(frame, frame[5], frame[6]):
+                return True, True
+            bad_signature = True
+        else:
+            bad_signature = False
+        if not self.required or msg_id in ALWAYS_ACCEPTED_UNSIGNED:
+            return True, False
+        self.stats['bad_signature' if bad_signature else 'unsigned_rejected'] += 1
+        kind = mavlink.mavlink_map.get(msg_id)
+        self._log_rejection(kind.msgname if kind else 'message id %d' % msg_id, bad_signature)
+        return False, False
 
     def _check_signature(self, msgbuf, src_system, src_component):
         s = self.mav.signing
         expected = hashlib.sha256(s.secret_key + bytes(msgbuf[:-6])).digest()[:6]
         if not hmac.compare_digest(expected, bytes(msgbuf[-6:])):
-            self._failed = True
             return False
         link_id = msgbuf[-13]
         timestamp = int.from_bytes(msgbuf[-12:-6], 'little')
@@ -125,22 +139,11 @@ class LinkSigning:
         last = self._streams.get(stream)
         if (timestamp <= last) if last is not None else (timestamp + NEW_STREAM_WINDOW < s.timestamp):
             self.stats['replayed'] += 1
-            self._failed = True
             return False
         self._streams[stream] = timestamp
         with self._send_lock:
             s.timestamp = max(s.timestamp, timestamp)
         return True
-
-    def _accept_unsigned(self, _mav, msg_id):
-        """pymavlink asks this for an unsigned frame, or a signed one that failed the check."""
-        failed, self._failed = self._failed, False
-        if not self.required or msg_id in ALWAYS_ACCEPTED_UNSIGNED:
-            return True
-        self.stats['bad_signature' if failed else 'unsigned_rejected'] += 1
-        kind = mavlink.mavlink_map.get(msg_id)
-        self._log_rejection(kind.msgname if kind else 'message id %d' % msg_id, failed)
-        return False
 
     def _log_rejection(self, name, bad_signature):
         """The first rejections and then every 100th: an attack must not flood the log."""
