@@ -134,7 +134,7 @@ def test_messages_lost_counts_sequence_gaps_as_px4(start_sim):
     before = client.latest['LINK_NODE_STATUS'].messages_lost
     for _ in range(10):
         with client.lock:
-            client.conn.write(heartbeat.pack(stuck))
+            client.write(heartbeat.pack(stuck))
         client.sleep(0.05)
     client.sleep(1.2)
     lost = client.latest['LINK_NODE_STATUS'].messages_lost - before

@@ -54,18 +54,18 @@ def test_signing_required_drops_unsigned_and_badly_signed(start_sim, tmp_path):
     assert no_ack_for(client, lambda: client.send(arm_command(client.mav, client.target)))
     client.send(client.mav.param_set_encode(client.target, 1, b'MIS_TAKEOFF_ALT', 9.0, mavlink.MAV_PARAM_TYPE_REAL32))
     v1 = mavlink1.MAVLink(None, srcSystem=255, srcComponent=GCS_COMPONENT)
-    assert no_ack_for(client, lambda: client.conn.write(arm_command(v1, client.target)
+    assert no_ack_for(client, lambda: client.write(arm_command(v1, client.target)
                                                         .pack(v1)))
     forger = mavlink2.MAVLink(None, srcSystem=255, srcComponent=GCS_COMPONENT)
     forger.signing.secret_key, forger.signing.sign_outgoing = bytes(32 * [9]), True
     forger.signing.timestamp = 2 ** 46
-    assert no_ack_for(client, lambda: client.conn.write(
+    assert no_ack_for(client, lambda: client.write(
         arm_command(forger, client.target).pack(forger)))
     echoes = [m for _, m in client.history[start:] if m.get_type() == 'PARAM_VALUE' and m.param_id == 'MIS_TAKEOFF_ALT']
     assert not client.armed() and not echoes, client.describe()
 
     # the right key: answered, and the forged far-future timestamp locked nobody out
-    client.conn.setup_signing(KEY, sign_outgoing=True)
+    client.setup_signing(KEY, sign_outgoing=True)
     assert client.arm() == ACCEPTED
     client.wait_armed(True, 2.0)
     counts = exit_counts(sim)
@@ -79,11 +79,11 @@ def test_setup_signing_provisions_the_key(start_sim):
     client.wait_for(lambda: client.latest['HEARTBEAT'].get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED, 3.0,
                     'a signed HEARTBEAT')
     assert no_ack_for(client, lambda: client.send(arm_command(client.mav, client.target)))
-    client.conn.setup_signing(KEY, sign_outgoing=True)
+    client.setup_signing(KEY, sign_outgoing=True)
     assert client.arm() == ACCEPTED
     # an all-zero key, signed with the current one, turns signing off again
     client.send(client.mav.setup_signing_encode(client.target, 1, [0] * 32, 0))
-    client.conn.disable_signing()
+    client.disable_signing()
     client.wait_for(lambda: not client.latest['HEARTBEAT'].get_header().incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED,
                     3.0, 'an unsigned HEARTBEAT')
     assert client.arm(False) == ACCEPTED
@@ -102,7 +102,7 @@ def test_allow_list_takes_commands_from_listed_systems_only(start_sim):
     # system 42 is listed (its ACK comes back to the same socket)
     gcs = mavlink2.MAVLink(None, srcSystem=42, srcComponent=GCS_COMPONENT)
     start = len(client.acks)
-    client.conn.write(arm_command(gcs, client.target).pack(gcs))
+    client.write(arm_command(gcs, client.target).pack(gcs))
     client.wait_for(lambda: any(a.command == ARM and a.result == ACCEPTED for _, a in client.acks[start:]), 3.0,
                     'arming accepted from system 42')
     client.wait_armed(True, 2.0)

@@ -11,7 +11,7 @@ or import the fixtures by name into any conftest.py:
 Fixtures:
   sim_px4    one simulated PX4 with its first HEARTBEAT received: a SimProcess (instance,
              system_id, fcu_port, bridge_port, clock, output) whose `client` is a connected
-             offboard_py.testing.sim_client.Client (`client.conn` is its pymavlink connection)
+             offboard_py.testing.sim_client.Client (`client.mav` is its MAVLink codec, `client.write` sends raw bytes)
   start_sim  a factory: start_sim(*sim_px4_args, connect=True) -> (SimProcess, Client or None),
              as many as a test needs, each on its own free instance; connect=False leaves the
              bridge port (SimProcess.url) to a pymavlink connection of the test's own

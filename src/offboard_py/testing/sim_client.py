@@ -25,11 +25,10 @@ import threading
 import time
 import warnings
 
-from pymavlink import mavutil
-
 from offboard_py import px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, check_pymavlink_version, mavlink
 from offboard_py.mavlink_link import SO_TIMESTAMPNS, STAMP_ANCILLARY_BYTES, kernel_stamp_ns
+from offboard_py.signing import signing_timestamp_now
 from offboard_py.simtime import SimClock, parse_speed, speed_from_env
 from offboard_py.testing import ports
 from offboard_py.testing.processes import OutputProcess
@@ -108,23 +107,20 @@ class Client:
         self.clock = clock
         self.target = ports.system_id(instance)
         port = ports.bridge_port(instance) if port is None else port
-        self.conn = mavutil.mavlink_connection('udpin:127.0.0.1:%d' % port,
-                                               source_system=system_id, source_component=component_id)
-        # mavutil's dialect= can only name a module in pymavlink.dialects (and, unless MAVLINK20 is in the
-        # environment, its MAVLink 1 flavour), and it switches mavutil's dialect for the whole process.
-        # The connection speaks through its public `mav` instead: our MAVLink 2 dialect, put there as
-        # pymavlink does itself when it changes protocol (mavfile.auto_mavlink_version); with
-        # WIRE_PROTOCOL_VERSION 2.0, mavutil never swaps it back.
-        self.conn.mav = mavlink.MAVLink(self.conn, srcSystem=system_id, srcComponent=component_id)
-        self.conn.mav.robust_parsing = self.conn.robust_parsing
-        self.conn.WIRE_PROTOCOL_VERSION = mavlink.WIRE_PROTOCOL_VERSION
-        self.conn.port.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
-        self.conn.port.setsockopt(socket.SOL_SOCKET, SO_RXQ_OVFL, 1)
+        # A socket of our own, bound as mavutil's udpin: would bind it, answering whoever sent to it: the
+        # client speaks our MAVLink 2 dialect through a codec of its own, and pymavlink's mavutil (whose
+        # dialect= is process-wide) stays as installed.
+        self.port = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.port.bind(('127.0.0.1', port))
+        self.clients = set()       # who sent to us: where write() sends
+        self.port.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
+        self.port.setsockopt(socket.SOL_SOCKET, SO_RXQ_OVFL, 1)
         try:
-            self.conn.port.setsockopt(socket.SOL_SOCKET, SO_RCVBUFFORCE, RECEIVE_BUFFER_BYTES)
+            self.port.setsockopt(socket.SOL_SOCKET, SO_RCVBUFFORCE, RECEIVE_BUFFER_BYTES)
         except PermissionError:  # not root: as much as net.core.rmem_max allows
-            self.conn.port.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER_BYTES)
-        self.mav = self.conn.mav
+            self.port.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RECEIVE_BUFFER_BYTES)
+        self.mav = mavlink.MAVLink(self, srcSystem=system_id, srcComponent=component_id)
+        self.mav.robust_parsing = True
         self.lock = threading.Lock()
         self.latest = {}
         self.history = []          # (simulated time, msg) of everything received
@@ -144,7 +140,7 @@ class Client:
         however late this thread gets to it (at speed K a wall millisecond is K simulated ones), and
         its size and message count kept (PX4 frames one message a datagram; pymavlink's recv_match
         would queue the rest of a datagram that held several behind the next one)."""
-        sock = self.conn.port
+        sock = self.port
         while self._running:
             if not select.select([sock], [], [], 0.2)[0]:
                 continue
@@ -157,7 +153,7 @@ class Client:
             for level, kind, value in ancdata:
                 if level == socket.SOL_SOCKET and kind == SO_RXQ_OVFL and len(value) >= DROPS.size:
                     self.dropped_datagrams = DROPS.unpack_from(value)[0]
-            self.conn.clients.add(address)  # conn.write() answers whoever sent to us, as pymavlink's recv() does
+            self.clients.add(address)  # write() answers whoever sent to us, as mavutil's udpin does
             msgs = [m for m in self.mav.parse_buffer(data) or () if m.get_type() != 'BAD_DATA']
             with self.lock:
                 for msg in msgs:
@@ -178,13 +174,31 @@ class Client:
 
     def send(self, msg):
         with self.lock:
-            self.conn.mav.send(msg)
+            self.mav.send(msg)
+
+    def write(self, data):
+        """Raw bytes to whoever sent to us (the codec's file: MAVLink.send writes through this)."""
+        for address in list(self.clients):
+            try:
+                self.port.sendto(data, address)
+            except OSError:  # a client that went away
+                pass
+
+    def setup_signing(self, key, sign_outgoing=True, link_id=0):
+        """Sign what this client sends with `key` (32 bytes), and check what it receives with it."""
+        signing = self.mav.signing
+        signing.secret_key, signing.link_id = bytes(key), link_id
+        signing.timestamp = signing_timestamp_now()
+        signing.sign_outgoing = sign_outgoing
+
+    def disable_signing(self):
+        self.mav.signing.secret_key, self.mav.signing.sign_outgoing = None, False
 
     def close(self):
         self.stop_stream()
         self._running = False
         self._rx.join(timeout=2)
-        self.conn.close()
+        self.port.close()
 
     # -- waiting -----------------------------------------------------------------------------
 
