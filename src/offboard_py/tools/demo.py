@@ -220,7 +220,21 @@ def main(argv=None):
         if interrupted:
             print('interrupted while waiting for the ROS master')
             return 1
-        rospy.init_node('takeoff_demo', disable_signals=True)
+        # The launch may still fail once its master is up (a missing PX4 build, an unknown fcu), taking the
+        # master with it: rospy.init_node would then wait for it for good. Join from a thread, watching roslaunch.
+        joined = threading.Event()
+        threading.Thread(target=lambda: (rospy.init_node('takeoff_demo', disable_signals=True), joined.set()),
+                         daemon=True).start()
+        join_deadline = time.monotonic() + MASTER_TIMEOUT_S
+        while not joined.wait(0.2):
+            if launch.poll() is not None or interrupted or time.monotonic() > join_deadline:
+                rospy.signal_shutdown('the demo ends before it joined the ROS master')
+                if launch.poll() is not None:
+                    return said_launch_ended(launch, args.log,
+                                             'roslaunch exited (code %s) before the demo joined its ROS master')
+                print('interrupted while joining the ROS master' if interrupted else
+                      'could not join the ROS master within %.0f s; roslaunch output: %s' % (MASTER_TIMEOUT_S, args.log))
+                return 1
         rec = Recorder(t0, clock)
         rospy.Subscriber('/mavros/state', State, rec.phases.on_state)
         rospy.Subscriber('/mavros/local_position/pose', PoseStamped, rec.on_pose)
