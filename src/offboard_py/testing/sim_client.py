@@ -3,8 +3,9 @@
 `start_simulated_px4()` starts the simulator (offboard_py.sim, what scripts/sim_px4.py runs) on an
 instance whose ports are free, waits a bounded time for its first HEARTBEAT and returns the
 process (`SimProcess`: instance, ports, clock, collected output) and a `Client` on its onboard
-link. The client is what mavros, MAVSDK or a script would be to the vehicle: a pymavlink
-connection (`client.conn`) on the instance's bridge port, a receive thread that keeps every
+link. The client is what mavros, MAVSDK or a script would be to the vehicle: a UDP socket
+on the instance's bridge port with a pymavlink codec of our dialect (`client.mav`; `client.write` sends raw
+bytes), a receive thread that keeps every
 message with its arrival time, waits that fail saying what they awaited and what the vehicle
 was doing, commands with their ACKs, and a 20 Hz setpoint stream. The pytest fixtures over
 this are in offboard_py.testing.pytest_plugin. No ROS here.
