@@ -69,8 +69,20 @@ def quaternion_from_yaw(yaw):
 
 
 def quaternion_yaw(q):
-    """Yaw (rad) of a quaternion, ZYX convention (mavros's ftf::quaternion_get_yaw)."""
+    """Yaw (rad) of a quaternion (x, y, z, w), ZYX convention (mavros's ftf::quaternion_get_yaw)."""
     x, y, z, w = q
+    return _yaw(w, x, y, z)
+
+
+def euler(q_wxyz):
+    """(roll, pitch, yaw) in rad, ZYX convention, of a quaternion (w, x, y, z): MAVLink's and PX4's order."""
+    w, x, y, z = q_wxyz
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    return roll, pitch, _yaw(w, x, y, z)
+
+
+def _yaw(w, x, y, z):
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 

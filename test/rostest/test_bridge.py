@@ -22,7 +22,7 @@ from tf2_msgs.msg import TFMessage
 
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
-from offboard_py.sim.telemetry import BARO_RATE_HZ, MAG_RATE_HZ
+from offboard_py.sim.mavlink.sensor_messages import BARO_RATE_HZ, MAG_RATE_HZ
 from offboard_py.testing.mavlink_listener import MavlinkListener
 from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, yaw_of
 from offboard_py.bridge.mavlink_passthrough import frame_to_msg
@@ -487,7 +487,7 @@ class BridgeTest(OffboardTestCase):
         POSITION_TARGET_LOCAL_NED 10 Hz, GPS_RAW_INT 8 Hz, SYSTEM_TIME 1 Hz, BATTERY_STATUS 0.5 Hz;
         /mavlink/from carries every frame: about 405 a second). imu/mag, imu/static_pressure and
         imu/temperature_imu follow HIGHRES_IMU's fresh-field bits, as mavros's do: PX4 SIH's magnetometer
-        and barometer rates (sim.telemetry, held to the recording by test_sim_telemetry).
+        and barometer rates (sim.mavlink.sensor_messages, held to the recording by test_sim_telemetry).
         raw/gps_vel is left out: on the ground GPS_RAW_INT has no course, and mavros then
         publishes none (a unit test holds the moving case)."""
         expected = {  # topic: (type, FCU rate in Hz)

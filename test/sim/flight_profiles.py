@@ -13,7 +13,7 @@ from offboard_py.sim import events as ev
 from offboard_py.sim import offboard_input
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
-from offboard_py.sim.mission import Item
+from offboard_py.sim.mavlink.mission_manager import Item
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 from offboard_py.testing.measured_tables import MISSION_BOX

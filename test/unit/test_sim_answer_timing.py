@@ -34,13 +34,13 @@ def command_long(ap, command, *params):
     msg = ap.link.mav.command_long_encode(ap.system_id, 1, command, 0, *params)
     msg._header = mavlink.MAVLink_header(msg.get_msgId(), srcSystem=255, srcComponent=190)
     ap.reply_link = ap.link
-    ap._on_command(msg)
+    ap.receiver._on_command(msg)
 
 
 def run_until(ap, clock, seconds, dt=0.0005):
     for _ in range(int(seconds / dt)):
         clock.now_s += dt
-        ap._send_deferred()
+        ap.command_sender.send_deferred()
 
 
 def test_protocol_version_at_once_and_its_ack_about_4_ms_later(autopilot):

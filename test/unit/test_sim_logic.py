@@ -300,7 +300,7 @@ def test_takeoff_altitude_from_the_command():
 
 
 def test_mission_items_reached_in_order():
-    from offboard_py.sim.mission import Item
+    from offboard_py.sim.mavlink.mission_manager import Item
     f = make()
     local = M.MAV_FRAME_LOCAL_NED
     f.load_mission([Item(local, M.MAV_CMD_NAV_TAKEOFF, 1, 0, 0, 0, NAN, 0.0, 0.0, -3.0),
@@ -316,7 +316,7 @@ def test_mission_items_reached_in_order():
 
 
 def test_current_mode_carries_the_standard_mode():
-    from offboard_py.sim.telemetry import TelemetryBuilder
+    from offboard_py.sim.mavlink.messages import TelemetryBuilder
     f = make()
     builder = TelemetryBuilder(M.MAVLink(None), LocalFrame(47.0, 8.0, 500.0), f.params)
     # PX4's numbers on the wire (reference/px4-sitl-measured.md, "Turn 3 recordings", section 3: MISSION 6,

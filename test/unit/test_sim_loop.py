@@ -21,16 +21,23 @@ class Clock:
         self.extra_s += seconds
 
 
+class CommandSender:
+    """A simulated PX4's command sender with nothing deferred."""
+
+    def __init__(self):
+        self.deferred = []
+
+    def send_deferred(self, _now=None):
+        pass
+
+
 class Vehicle:
     """What run_together asks of a simulated PX4, counting its steps; the 20th step stalls the process."""
 
     def __init__(self, clock, system_id):
         self.clock, self.rate_hz, self.steps_per_wakeup = clock, 100.0, 2
-        self.links, self.deferred, self.system_id, self.boot_s = [], [], system_id, clock()
+        self.links, self.command_sender, self.system_id, self.boot_s = [], CommandSender(), system_id, clock()
         self.running, self.steps = True, 0
-
-    def _send_deferred(self, _now=None):
-        pass
 
     def step(self, _dt, _slot_s=None, _out=None):
         self.steps += 1

@@ -5,7 +5,7 @@ as a link would send them."""
 import pytest
 
 from offboard_py.dialect import mavlink
-from offboard_py.sim import mission as missions
+from offboard_py.sim.mavlink import mission_manager
 
 M = mavlink
 MISSION, FENCE = M.MAV_MISSION_TYPE_MISSION, M.MAV_MISSION_TYPE_FENCE
@@ -28,7 +28,7 @@ class Rig:
     def __init__(self):
         self.link = Link()
         self.texts, self.changes = [], []
-        self.transfer = missions.MissionTransfer(BUILD, 1, lambda: self.link, self.texts.append, self.changes.append)
+        self.transfer = mission_manager.MissionManager(BUILD, 1, lambda: self.link, self.texts.append, self.changes.append)
 
     def sent(self, kind=None):
         return [m for m in self.link.sent if kind is None or m.get_type() == kind]

@@ -18,6 +18,7 @@ import pytest
 
 from offboard_py.dialect import mavlink
 from offboard_py.sim import autopilot as ap_module
+from offboard_py.sim.mavlink import statustext
 from offboard_py.sim.autopilot import SimulatedPx4
 
 from manual_clock import ManualClock
@@ -207,7 +208,7 @@ def test_texts_older_than_5_s_are_dropped_and_several_go_out_20_a_second(rig):
     sent = [(t, m.text) for t, m in rig.got if m.get_type() == 'STATUSTEXT']
     assert [text for _, text in sent] == [refusal(v) for v in (500.0, 501.0, 502.0)], sent
     gaps = [b[0] - a[0] for a, b in zip(sent, sent[1:])]
-    assert all(gap >= ap_module.STATUSTEXT_INTERVAL_S - 1e-9 for gap in gaps), gaps
+    assert all(gap >= statustext.STATUSTEXT_INTERVAL_S - 1e-9 for gap in gaps), gaps
 
 
 def recorded_boot_params():
@@ -258,9 +259,9 @@ def test_a_text_longer_than_50_characters_goes_out_in_chunks_of_one_id(rig):
     heartbeat(rig, mavlink.MAV_TYPE_GCS)
     long_text = ''.join(chr(ord('a') + i % 26) for i in range(120))
     too_long = 'x' * 130
-    rig.ap._text(mavlink.MAV_SEVERITY_INFO, 'short')
-    rig.ap._text(mavlink.MAV_SEVERITY_WARNING, long_text)
-    rig.ap._text(mavlink.MAV_SEVERITY_INFO, too_long)
+    rig.ap.text(mavlink.MAV_SEVERITY_INFO, 'short')
+    rig.ap.text(mavlink.MAV_SEVERITY_WARNING, long_text)
+    rig.ap.text(mavlink.MAV_SEVERITY_INFO, too_long)
     rig.run(0.3)
     sent = [(m.id, m.chunk_seq, m.severity, m.text) for m in rig.of('STATUSTEXT')]
     assert sent == [(0, 0, mavlink.MAV_SEVERITY_INFO, 'short'),

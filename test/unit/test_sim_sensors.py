@@ -14,7 +14,8 @@ import os
 import pytest
 
 from offboard_py.dialect import mavlink
-from offboard_py.sim import offboard_input, telemetry
+from offboard_py.sim import offboard_input
+from offboard_py.sim.mavlink import messages
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.main import parser
@@ -75,7 +76,7 @@ class Run(OffboardFlight):
 
     def __init__(self, ideal=False, seed=None):
         super().__init__(ParamStore({}), FRAME, ideal=ideal, seed=seed)
-        self.builder = telemetry.TelemetryBuilder(M.MAVLink(None, srcSystem=1), FRAME, self.flight.params)
+        self.builder = messages.TelemetryBuilder(M.MAVLink(None, srcSystem=1), FRAME, self.flight.params)
 
     def messages(self, seconds, name):
         out = []

@@ -1,5 +1,5 @@
 """The simulated PX4's telemetry, offline: streams and rates, SYS_STATUS and HEARTBEAT words,
-the battery, and messages built from a flight Status (sim.telemetry, sim.flight)."""
+the battery, and messages built from a flight Status (sim.mavlink.streams and messages, sim.flight)."""
 
 import functools
 import json
@@ -10,7 +10,9 @@ import pytest
 
 from offboard_py import dialect
 from offboard_py.dialect import mavlink
-from offboard_py.sim import offboard_input, telemetry
+from offboard_py.sim import offboard_input
+from offboard_py.sim.mavlink import link_stats, messages, sensor_messages
+from offboard_py.sim.mavlink import streams as sim_streams
 from offboard_py.sim.flight import HOVER_THRUST, Battery, Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.param_store import ParamStore
@@ -27,7 +29,7 @@ def make(ready_delay_s=0.0, rc=False, **overrides):
 
 
 def builder(flight):
-    return telemetry.TelemetryBuilder(M.MAVLink(None, srcSystem=3), FRAME, flight.params)
+    return messages.TelemetryBuilder(M.MAVLink(None, srcSystem=3), FRAME, flight.params)
 
 
 def fly(f, t0, seconds, sp=None, dt=0.01):
@@ -56,17 +58,17 @@ def due_counts(streams, seconds, dt=0.01):
 
 
 def test_onboard_streams_at_px4_rates():
-    counts = due_counts(telemetry.Streams(0.0, telemetry.ONBOARD_RATES_HZ), 10.0)
-    for name, hz in telemetry.ONBOARD_RATES_HZ.items():
+    counts = due_counts(sim_streams.Streams(0.0, sim_streams.ONBOARD_RATES_HZ), 10.0)
+    for name, hz in sim_streams.ONBOARD_RATES_HZ.items():
         assert counts[name] == pytest.approx(hz * 10.0, abs=1), name
-    assert telemetry.ONBOARD_RATES_HZ['SYS_STATUS'] == 5.0 and telemetry.ONBOARD_RATES_HZ['ATTITUDE'] == 100.0
+    assert sim_streams.ONBOARD_RATES_HZ['SYS_STATUS'] == 5.0 and sim_streams.ONBOARD_RATES_HZ['ATTITUDE'] == 100.0
 
 
 def test_gcs_streams_are_px4_sitls_gcs_link_as_measured():
     """reference/px4-sitl-gcs-census.json: every stream within 10 % (EVENT and CURRENT_EVENT_SEQUENCE are not
     simulated: test/sim/test_census.py), none it does not send (RC_CHANNELS only with an RC link)."""
     census = json.load(open(os.path.join(REPO, 'reference', 'px4-sitl-gcs-census.json')))['rates_hz']
-    gcs = telemetry.GCS_RATES_HZ
+    gcs = sim_streams.GCS_RATES_HZ
     omitted = {'EVENT', 'CURRENT_EVENT_SEQUENCE'}
     wrong = ['%s %r, PX4 %r' % (name, gcs.get(name), hz) for name, hz in sorted(census.items())
              if name not in omitted and abs(gcs.get(name, 0.0) - hz) > 0.1 * hz]
@@ -75,7 +77,7 @@ def test_gcs_streams_are_px4_sitls_gcs_link_as_measured():
 
 
 def test_message_interval_for_any_message_the_simulator_builds():
-    streams = telemetry.Streams(0.0, telemetry.GCS_RATES_HZ)
+    streams = sim_streams.Streams(0.0, sim_streams.GCS_RATES_HZ)
     odometry = M.MAVLINK_MSG_ID_ODOMETRY  # not in the GCS set
     assert streams.interval_us(odometry) == -1
     assert streams.set_interval(odometry, 100000, 0.0)
@@ -91,7 +93,7 @@ def test_message_interval_for_any_message_the_simulator_builds():
 def test_streams_that_follow_their_data_go_no_faster_than_it():
     """PX4 sends GPS_RAW_INT on each GPS fix (8 Hz) and TIME_ESTIMATE_TO_TARGET on each of the
     navigator's estimates (every 2 s) whatever the interval asked; it reports the interval set."""
-    streams = telemetry.Streams(0.0, telemetry.ONBOARD_RATES_HZ)
+    streams = sim_streams.Streams(0.0, sim_streams.ONBOARD_RATES_HZ)
     assert streams.set_interval(M.MAVLINK_MSG_ID_TIME_ESTIMATE_TO_TARGET, 100000, 0.0)
     assert streams.set_interval(M.MAVLINK_MSG_ID_GPS_RAW_INT, 20000, 0.0)
     assert streams.interval_us(M.MAVLINK_MSG_ID_TIME_ESTIMATE_TO_TARGET) == 100000
@@ -104,10 +106,10 @@ def test_streams_that_follow_their_data_go_no_faster_than_it():
 # -- SYS_STATUS and HEARTBEAT ------------------------------------------------------------------
 
 def test_sys_status_words_are_px4_sitl_s():
-    assert telemetry.SENSORS_PRESENT == 0x0300402F
-    assert telemetry.SENSORS_ENABLED == 0x0301402F
-    assert telemetry.sensors_health(True) == 0x1320C83F
-    assert telemetry.sensors_health(False) == 0x1320C83F & ~M.MAV_SYS_STATUS_PREARM_CHECK
+    assert messages.SENSORS_PRESENT == 0x0300402F
+    assert messages.SENSORS_ENABLED == 0x0301402F
+    assert messages.sensors_health(True) == 0x1320C83F
+    assert messages.sensors_health(False) == 0x1320C83F & ~M.MAV_SYS_STATUS_PREARM_CHECK
 
 
 def test_readiness_failures_and_disarm_in_status():
@@ -199,8 +201,8 @@ def test_battery_status_message_and_charge_states():
     f = make()
     msg = builder(f).build('BATTERY_STATUS', f.status(0.0), 0.0)
     assert (msg.battery_function, msg.type, msg.battery_remaining, msg.charge_state) == (1, 1, 100, 1)
-    assert telemetry.battery_charge_state(0.1) == M.MAV_BATTERY_CHARGE_STATE_LOW
-    assert telemetry.battery_charge_state(0.06) == M.MAV_BATTERY_CHARGE_STATE_CRITICAL
+    assert messages.battery_charge_state(0.1) == M.MAV_BATTERY_CHARGE_STATE_LOW
+    assert messages.battery_charge_state(0.06) == M.MAV_BATTERY_CHARGE_STATE_CRITICAL
     f.request_arming(True, False, 0.0)
     fly(f, 0.0, 5.0)
     assert f.status(5.0).battery_remaining < 1.0
@@ -212,13 +214,13 @@ def test_every_stream_builds_on_the_ground_and_in_the_air():
     f = make(rc=True)  # RC_CHANNELS needs an RC link
     b = builder(f)
     auto_only = {'POSITION_TARGET_GLOBAL_INT'}
-    for name in sorted((telemetry.STREAMABLE | telemetry.ON_REQUEST) - telemetry.PER_LINK - auto_only):
+    for name in sorted((sim_streams.STREAMABLE | sim_streams.ON_REQUEST) - sim_streams.PER_LINK - auto_only):
         assert b.build(name, f.status(1.0), 1.0) is not None, name
     f.on_offboard_setpoint(hover_setpoint(), 0.0)
     f.request_mode('OFFBOARD', 0.0)
     f.request_arming(True, False, 0.0)
     t = fly(f, 0.0, 12.0, hover_setpoint())
-    for name in sorted(telemetry.STREAMABLE - telemetry.PER_LINK - auto_only):
+    for name in sorted(sim_streams.STREAMABLE - sim_streams.PER_LINK - auto_only):
         assert b.build(name, f.status(t), t) is not None, name
 
 
@@ -237,12 +239,12 @@ def test_position_target_global_int_only_while_armed_in_an_auto_mode():
     msg = b.build('POSITION_TARGET_GLOBAL_INT', f.status(t), t)
     assert f.status(t).nav_mode == 'AUTO.RTL' and msg is not None
     assert (msg.coordinate_frame, msg.type_mask) == (M.MAV_FRAME_GLOBAL_INT, 0)
-    assert telemetry.ONBOARD_RATES_HZ['POSITION_TARGET_GLOBAL_INT'] == 10.0
+    assert sim_streams.ONBOARD_RATES_HZ['POSITION_TARGET_GLOBAL_INT'] == 10.0
 
 
 def test_rc_channels_only_with_an_rc_link():
     """PX4 sends RC_CHANNELS (20 Hz on both SITL links: px4-rc.mavlink) only while RC input updates."""
-    assert telemetry.ONBOARD_RATES_HZ['RC_CHANNELS'] == 20.0 and telemetry.GCS_RATES_HZ['RC_CHANNELS'] == 20.0
+    assert sim_streams.ONBOARD_RATES_HZ['RC_CHANNELS'] == 20.0 and sim_streams.GCS_RATES_HZ['RC_CHANNELS'] == 20.0
     assert builder(make(rc=False)).build('RC_CHANNELS', make(rc=False).status(1.0), 1.0) is None
     f = make(rc=True)
     msg = builder(f).build('RC_CHANNELS', f.status(1.0), 1.0)
@@ -287,7 +289,7 @@ def test_hover_telemetry_is_consistent():
 
 def test_body_velocity_of_odometry():
     yawed_90 = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # nose east
-    assert telemetry.to_body(yawed_90, (0.0, 1.0, 0.0)) == pytest.approx((1.0, 0.0, 0.0), abs=1e-9)
+    assert messages.to_body(yawed_90, (0.0, 1.0, 0.0)) == pytest.approx((1.0, 0.0, 0.0), abs=1e-9)
 
 
 def test_disarmed_on_the_ground():
@@ -371,12 +373,12 @@ def test_a_parameter_list_goes_out_between_the_streams_of_each_cycle_of_a_wake_u
     PARAM_REQUEST_LIST answer must go out between that cycle's streams, as PX4's loop interleaves them
     (at most 20 PARAM_VALUE between two ATTITUDEs in the recorded pull), not all the cycles' batches
     ahead of all their streams (a CI run under load saw 55 in a row)."""
-    from offboard_py.sim.autopilot import PARAM_LIST_BATCH
+    from offboard_py.sim.mavlink.parameters import PARAM_LIST_BATCH
 
     sim = stopped_clock_sim()
     try:
         sim.step(0.01, 6.99, {})  # past the PARAM_VALUEs PX4 sends unasked at boot (BOOT_PARAM_ANNOUNCEMENTS)
-        sim._on_param_request_list(sim.mav.param_request_list_encode(sim.system_id, 1))
+        sim.parameters.on_request_list(sim.mav.param_request_list_encode(sim.system_id, 1))
         out = {}
         for cycle in range(5):
             sim.step(0.01, 7.00 + 0.01 * cycle, out)
@@ -447,14 +449,14 @@ def frame_v2(seq, system, component, msg_id=0):
 def test_messages_lost_are_counted_as_px4_counts_them():
     """reference/px4-sitl-measured.md, "Turn 3 recordings", section 4: a sender whose sequence numbers
     advance loses nothing; one that always sends seq 0 makes PX4 count 254 lost per message."""
-    clean, stuck = telemetry.LinkCounters(_Stats(), 0.0), telemetry.LinkCounters(_Stats(), 0.0)
+    clean, stuck = link_stats.LinkCounters(_Stats(), 0.0), link_stats.LinkCounters(_Stats(), 0.0)
     for n in range(600):
         clean.on_frame(frame_v2(n & 0xFF, 1, 191))
         clean.on_frame(frame_v2(n & 0xFF, 1, 240))  # another component: its own sequence
         stuck.on_frame(frame_v2(0, 1, 191))
     assert clean.lost == 0
     assert stuck.lost == 254 * 599, 'each message after the first'
-    v1 = telemetry.LinkCounters(_Stats(), 0.0)
+    v1 = link_stats.LinkCounters(_Stats(), 0.0)
     for seq in (10, 12):  # MAVLink 1: seq at byte 2, system 3, component 4
         v1.on_frame(bytes([0xFE, 9, seq, 1, 1, 0]) + bytes(11))
     assert v1.lost == 1
@@ -462,7 +464,7 @@ def test_messages_lost_are_counted_as_px4_counts_them():
 
 def test_link_node_status_is_the_links_own_as_px4_fills_it():
     stats = _Stats()
-    counters = telemetry.LinkCounters(stats, 10.0)
+    counters = link_stats.LinkCounters(stats, 10.0)
     b = builder(make())
     stats.update(bytes_sent=24000, bytes_received=900, messages_sent=400, received=30, other_system=2,
                  bad_frames=70000)
@@ -500,7 +502,7 @@ def test_highres_imu_marks_fresh_fields_at_px4_sihs_sensor_rates_and_holds_the_r
 
     def rates(msgs, seconds):
         return {bits: sum(1 for m in msgs if m.fields_updated & bits == bits) / seconds
-                for bits in (telemetry.HIGHRES_ACCEL_GYRO, telemetry.HIGHRES_MAG, telemetry.HIGHRES_BARO)}
+                for bits in (sensor_messages.HIGHRES_ACCEL_GYRO, sensor_messages.HIGHRES_MAG, sensor_messages.HIGHRES_BARO)}
     f = make()
     f.on_offboard_setpoint(hover_setpoint(), 0.0)
     f.request_mode('OFFBOARD', 0.0)
@@ -516,8 +518,8 @@ def test_highres_imu_marks_fresh_fields_at_px4_sihs_sensor_rates_and_holds_the_r
         assert got[bits] == pytest.approx(want[bits], rel=0.03), (hex(bits), got, want)
     assert not any(m.fields_updated & dialect.HIGHRES_IMU_UPDATED_DIFF_PRESSURE for m in recorded + ours), \
         'no differential pressure on either'
-    sensors = telemetry.HIGHRES_MAG | telemetry.HIGHRES_BARO
-    assert {m.fields_updated & ~sensors for m in recorded + ours} == {telemetry.HIGHRES_ACCEL_GYRO}
+    sensors = sensor_messages.HIGHRES_MAG | sensor_messages.HIGHRES_BARO
+    assert {m.fields_updated & ~sensors for m in recorded + ours} == {sensor_messages.HIGHRES_ACCEL_GYRO}
     for msgs in (recorded, ours):
         for before, after in zip(msgs, msgs[1:]):
             if not after.fields_updated & dialect.HIGHRES_IMU_UPDATED_ABS_PRESSURE:

@@ -154,10 +154,10 @@ def test_the_autopilot_sends_a_vehicle_command_to_its_own_system_and_repeats_it_
     sent = []
     ap.link.send = lambda msg: sent.append((clock.now, msg))
     try:
-        ap._send_vehicle_command(ev.VehicleCommand(0, (0.0, 2.0, 80.0, NAN_PARAM, 0.0, 0.0, 490.0), True))
+        ap.command_sender.send_vehicle_command(ev.VehicleCommand(0, (0.0, 2.0, 80.0, NAN_PARAM, 0.0, 0.0, 490.0), True))
         for _ in range(3000):
             clock.now += 0.001
-            ap._send_deferred()
+            ap.command_sender.send_deferred()
         times = [t - 1000.0 for t, _ in sent]
         assert [m.confirmation for _, m in sent] == [0, 1, 2, 3]
         assert {(m.target_system, m.target_component, m.command) for _, m in sent} == {(ap.system_id, 0, 0)}
@@ -165,14 +165,14 @@ def test_the_autopilot_sends_a_vehicle_command_to_its_own_system_and_repeats_it_
             assert min(r[i - 1] for r in RECORDED_REPEATS_S) * 0.9 <= times[i] <= \
                 max(r[i - 1] for r in RECORDED_REPEATS_S) * 1.1, times
         del sent[:]
-        ap._send_vehicle_command(ev.VehicleCommand(M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, (1.0,) * 7, True))
-        ap._send_deferred()
+        ap.command_sender.send_vehicle_command(ev.VehicleCommand(M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, (1.0,) * 7, True))
+        ap.command_sender.send_deferred()
         ack = ap.mav.command_ack_encode(M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, M.MAV_RESULT_ACCEPTED, 0, 0,
                                         ap.system_id, 1)
-        ap._on_command_ack(ack)
+        ap.command_sender.on_command_ack(ack)
         for _ in range(3000):
             clock.now += 0.001
-            ap._send_deferred()
+            ap.command_sender.send_deferred()
         assert [m.confirmation for _, m in sent] == [0], 'acknowledged: no repeats'
     finally:
         ap.close_links()

@@ -43,7 +43,7 @@ class ItemReached(NamedTuple):
 class VehicleCommand(NamedTuple):
     """A command PX4's navigator publishes for another component of its own system (a gimbal, the
     mission's idle item): PX4's COMMAND_LONG stream sends it to (own system, component 0), and
-    repeats it while unacknowledged when `repeat` (sim.autopilot)."""
+    repeats it while unacknowledged when `repeat` (sim.mavlink.command_sender)."""
     command: int
     params: tuple  # param1..param7
     repeat: bool

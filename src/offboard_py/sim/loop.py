@@ -56,12 +56,12 @@ def run_together(sims, duration_s=None, on_stall=None):
     try:
         while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):
             wake_s = next_s + (batch - 1) * period
-            until_s = min([wake_s] + [d[0] for sim in sims for d in sim.deferred])
+            until_s = min([wake_s] + [d[0] for sim in sims for d in sim.command_sender.deferred])
             for fd, _ in poller.poll(max(0.0, until_s - clock()) / speed):
                 by_fd[fd].receive()
             now = clock()
             for sim in sims:
-                sim._send_deferred(now)
+                sim.command_sender.send_deferred(now)
             if now < wake_s:
                 continue
             if now - next_s > STALL_S * speed:  # stalled (suspended, overloaded): resynchronise

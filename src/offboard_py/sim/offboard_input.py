@@ -20,6 +20,7 @@ Pure: it never sees a socket or a clock. Whether OFFBOARD flies it is the comman
 
 import math
 
+from offboard_py import frames
 from offboard_py.dialect import mavlink
 from offboard_py.sim import vehicle as vm
 
@@ -153,9 +154,7 @@ def attitude_setpoint(type_mask, q_wxyz, thrust, body_rates=(0.0, 0.0, 0.0)):
     if norm < 1e-6:
         raise SetpointRejected('attitude quaternion is all zero: not a rotation')
     q = tuple(c / norm for c in q_wxyz)
-    w, x, y, z = q
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return vm.setpoint(yaw=yaw, attitude=q, thrust=float(thrust))
+    return vm.setpoint(yaw=frames.euler(q)[2], attitude=q, thrust=float(thrust))
 
 
 def from_attitude_message(msg):

@@ -14,7 +14,7 @@ On the ground, at rest and disarmed, the recorded noise is much smaller and the 
 
 Seeded, as SIH seeds its noise (srand(1234)), so a run repeats exactly; the stream is separate
 from the estimator's, so adding or changing sensor noise never changes a flight. Pure: no clock,
-no MAVLink.
+no MAVLink. The barometer's atmosphere is the ISA's (pressure_hpa, temperature_c).
 """
 
 import random
@@ -33,7 +33,17 @@ GROUND_GYRO_SD, GROUND_ACCEL_SD = 0.0070, 0.072
 RATE_FILTER_TAU_S = 0.0019
 
 
-class Imu:
+def pressure_hpa(alt_amsl_m):
+    """ISA static pressure at an altitude AMSL."""
+    return 1013.25 * (1.0 - 2.25577e-5 * alt_amsl_m) ** 5.25588
+
+
+def temperature_c(alt_amsl_m):
+    """ISA temperature at an altitude AMSL (15 deg C at sea level, 6.5 K a kilometre colder)."""
+    return 15.0 - 0.0065 * alt_amsl_m
+
+
+class SihImu:
     """Gyro and accelerometer readings: the truth plus SIH-like noise, and the filtered rates
     ATTITUDE reports. `ideal` reads the truth."""
 

@@ -35,7 +35,7 @@ from offboard_py.sim.estimator import Estimator, ground_start
 from offboard_py.sim.flight_math import GRAVITY, NAN, clamp, is_set
 from offboard_py.sim.land_detector import LandDetector
 from offboard_py.sim.position_control import PositionControl
-from offboard_py.sim.sensors import Imu
+from offboard_py.sim.sensors import SihImu
 
 # PX4's attitude pipeline, fitted to the 30 m step (module docstring): from the position controller's
 # thrust setpoint to the attitude controller (estimator and controller rates, uORB), and the rate
@@ -115,7 +115,7 @@ class VehicleModel:
         self._pending = deque([(-1.0, (0.0, 0.0, 0.0))])  # thrust setpoints on their way (PIPELINE_DELAY_S)
         self.yaw = yaw
         self.yaw_rate = 0.0
-        self.imu = Imu(self.estimator.seed, ideal=self.estimator.ideal)
+        self.imu = SihImu(self.estimator.seed, ideal=self.estimator.ideal)
         self._gust = (0.0, 0.0, 0.0)  # this step's
         self.body_rates = (0.0, 0.0, 0.0)  # FRD, rad/s: the filtered gyro (ATTITUDE), see sim.sensors
         self.gyro = (0.0, 0.0, 0.0)        # FRD, rad/s: the gyro (HIGHRES_IMU)

@@ -1,6 +1,6 @@
 """Missions on the simulated PX4: the vehicle side of the MAVLink mission protocol.
 
-`MissionTransfer` is the vehicle side of the mission protocol as PX4 main's MavlinkMissionManager
+`MissionManager` is the vehicle side of the mission protocol as PX4 main's MavlinkMissionManager
 (src/modules/mavlink/mavlink_mission.cpp at the recorded 02e73e3b6f) runs it: one state (idle,
 receiving a list, sending one) with one partner (system and component), upload (MISSION_COUNT,
 then MISSION_REQUEST_INT per item, answered by MISSION_ITEM_INT or the legacy MISSION_ITEM, then
@@ -84,7 +84,7 @@ def item_from_message(msg):
                 x, y, float(msg.z))
 
 
-class MissionTransfer:
+class MissionManager:
     """Vehicle side of the mission protocol, PX4's state machine (module docstring).
 
     `mav` builds messages; `link()` is the link the message being handled came from, where answers
