@@ -19,7 +19,7 @@ from offboard_py.dialect import mavlink as M
 from offboard_py.sim import events as ev
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
-from offboard_py.sim.mission import Item
+from offboard_py.sim.mavlink.mission_manager import Item
 from offboard_py.sim.param_store import ParamStore
 
 REFERENCE = os.path.join(os.path.dirname(__file__), '..', '..', 'reference')
