@@ -13,7 +13,7 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input
 from offboard_py.sim.mavlink import link_stats, messages, sensor_messages
 from offboard_py.sim.mavlink import streams as sim_streams
-from offboard_py.sim.flight import Battery, Flight
+from offboard_py.sim.flight import BatterySimulator, Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
@@ -213,7 +213,7 @@ def test_sys_status_message_follows_the_prearm_verdict():
 # -- the battery -------------------------------------------------------------------------------
 
 def test_battery_full_at_boot_drains_only_while_armed():
-    battery = Battery(endurance_s=100.0)
+    battery = BatterySimulator(endurance_s=100.0)
     assert battery.remaining == 1.0 and battery.voltage_v == pytest.approx(16.2)
     battery.step(10.0, armed=False)
     assert battery.remaining == 1.0

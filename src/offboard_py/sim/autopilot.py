@@ -32,7 +32,7 @@ from offboard_py.sim.mavlink.link_stats import LinkCounters
 from offboard_py.sim.mavlink.messages import TelemetryBuilder
 from offboard_py.sim.mavlink.parameters import ParametersManager
 from offboard_py.sim.mavlink.receiver import Receiver
-from offboard_py.sim.mavlink.statustext import StatusTexts
+from offboard_py.sim.mavlink.statustext import StatustextQueue
 from offboard_py.sim.mavlink.streams import send_on
 from offboard_py.dialect import mavlink
 
@@ -94,7 +94,7 @@ class SimulatedPx4:
         for link, counters in self.link_counters.items():
             link.on_frames(counters.on_frame)  # LINK_NODE_STATUS.messages_lost, counted as PX4 counts it
         self.command_sender = CommandSender(clock, self.mav, self.system_id, self.links)
-        self.texts = StatusTexts(self.links, self.telemetry.mav)
+        self.texts = StatustextQueue(self.links, self.telemetry.mav)
         self.origin_sent = False  # GPS_GLOBAL_ORIGIN's one message on every link (ORIGIN_FIRST_SENT_S)
         self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,

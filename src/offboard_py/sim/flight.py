@@ -28,9 +28,9 @@ HOVER_THRUST = 0.5  # normalised thrust that holds the vehicle (PX4's MPC_THR_HO
 HOME_SET_S = 2.4    # boot s when PX4 SITL first sets home (2.45 and 2.33 s recorded), unless ready sooner
 
 
-class Battery:
-    """A 4S LiPo that is full at boot (16.2 V: 4.05 V a cell, PX4's BAT1_V_CHARGED) and drains
-    linearly while armed, to empty after `endurance_s` of armed time; disarmed it holds its charge."""
+class BatterySimulator:
+    """PX4 SITL's battery simulator (src/modules/simulation/battery_simulator) as this model keeps it: a 4S LiPo
+    that is full at boot (16.2 V: 4.05 V a cell, PX4's BAT1_V_CHARGED) and drains linearly while armed, to empty after `endurance_s` of armed time; disarmed it holds its charge."""
     CELLS = 4
     CELL_FULL_V, CELL_EMPTY_V = 4.05, 3.5  # PX4's BAT1_V_CHARGED, BAT1_V_EMPTY
 
@@ -112,7 +112,7 @@ class Flight:
         self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
         self.navigator = Navigator(params, frame, self.vehicle)
         self.offboard_sp = None
-        self.battery = Battery()
+        self.battery = BatterySimulator()
         self.events = []
         # PX4 sets home as its estimator gets a position, before it is ready: 2.45 and 2.33 s after boot
         # in the two real-PX4 recordings (HOME_POSITION.time_usec, reference/conversations/takeoff-*-px4)

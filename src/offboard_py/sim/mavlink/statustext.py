@@ -33,7 +33,7 @@ def statustext(mav, severity, text, text_id):
             for seq, i in enumerate(range(0, len(data), chunk))]
 
 
-class StatusTexts:
+class StatustextQueue:
     """Each link's text queue, its GCS HEARTBEAT and its STATUSTEXT stream; `mav` encodes the messages."""
 
     def __init__(self, links, mav):
