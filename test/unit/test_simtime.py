@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from offboard_py.sim_clock import ClockTicks
+from offboard_py.clock_node import ClockTicks
 from offboard_py.simtime import SimClock, SpeedError, parse_speed, speed_from_env
 
 

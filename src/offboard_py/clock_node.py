@@ -1,4 +1,5 @@
-"""sim_clock: publishes /clock for a run in simulated time (offboard_py.simtime).
+"""The /clock node (ROS node and script `sim_clock`): publishes /clock for a run in simulated time (its
+formula: offboard_py.simtime.SimClock).
 
 The simulated PX4s step on `speed` x the host's monotonic clock; this node publishes the
 same formula on /clock, so every ROS node with /use_sim_time (rospy timers, rospy.Rate,
