@@ -1,11 +1,9 @@
-"""Instance numbers and UDP ports for tests, from one formula, so that runs do not clash.
+"""Instance numbers and UDP ports for tests, so that runs do not clash.
 
-A test vehicle is SITL instance N (0..39) and, as in PX4 SITL:
-  system id          N + 1
-  FCU port           14580 + N   the simulated PX4 binds it
-  bridge port        14540 + N   the bridge (fcu_url) binds it; the simulator sends there
-                                 (N = 10: 14620, see offboard_py.sitl_ports)
-  extra port k       15000 + 10 N + k  (k = 0..9) relays, a GCS, a fake FCU, control ports
+A test vehicle is PX4 SITL instance N (0..39), with PX4 SITL's system id and ports: the formula is
+offboard_py.sitl_ports's alone; this module checks the instance range, hands out free instances and
+gives each instance a block of extra ports (15000 + 10 N + k, k = 0..9: relays, a GCS, a fake FCU,
+control ports).
 N stays below 40 so that the FCU and bridge ranges never overlap.
 
 Who uses which N:
@@ -18,8 +16,6 @@ Who uses which N:
           namespace of its own or, without one, as catkin's target too)
   20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
   38, 39  a .test file run by hand without `instance:=N` (its default)
-The formula itself is offboard_py.sitl_ports's (PX4 SITL's); this module checks the instance
-range and hands out instances and extra ports.
 """
 
 import socket
