@@ -11,9 +11,9 @@ Who uses which N:
           15: its bridge port is 14555, mavros's default GCS bind port (nor 10, whose bridge
           port was 14550, where every simulator's GCS link sends, before sitl_ports moved it);
           two_vehicles.test takes 0 and 1 (multi_uav.launch numbers vehicles from 0);
-          fleet_shared_sims.test 19, 20 and 21 (20 and 21 also the pytest tiers': catkin runs the
-          meta tier and the rostests one after another, the simulator tier runs in a network
-          namespace of its own or, without one, as catkin's target too)
+          fleet_shared_sims.test 19, 20 and 21 (20 and 21 also the pytest tiers': under ./run test
+          those run beside the rostests in network namespaces of their own; without one, catkin runs
+          them one after another)
   20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
   38, 39  a .test file run by hand without `instance:=N` (its default)
 """
