@@ -3,7 +3,7 @@
 
 The takeoff flight with the setpoints stopped (the offboard-loss failsafe) flown on our stack
 (simulator + our bridge + offb_node) and recorded by a relay between the bridge and the simulator
-(offboard_py.testing.conversation), then compared figure by figure (offboard_py.conversation) with
+(offboard_py.conversation.record_flight), then compared figure by figure (offboard_py.conversation) with
 real mavros 1.21 + real PX4 SITL flying the same (reference/conversations/takeoff-mavros-px4): our
 bridge's side (ros) against real mavros's, our simulator's side (fcu) against real PX4's. Every
 difference fails the test unless ACCEPTED lists it, with its reason; an accepted difference that no
@@ -17,7 +17,7 @@ import rospy
 import rostest
 
 from offboard_py.conversation import analysis, compare, phases, reading, report
-from offboard_py.testing.conversation import fly_takeoff_and_record
+from offboard_py.conversation.record_flight import fly_takeoff_and_record
 from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle
 
 PKG = 'offboard_py'

@@ -4,6 +4,6 @@ One flight's recording (a pcap, or a decoded JSONL as in reference/conversations
 into messages (reading), cut into the flight's phases (phases), summed up per direction and
 phase: rates, commands and their answers, parameter and mission transactions, mode and arming
 changes, TIMESYNC pairs, sequence gaps (analysis), and two summaries are compared figure by
-figure (compare) and shown as a table and a PNG (report). None of it needs ROS; recording a
-flight of our own stack is offboard_py.testing.conversation's.
+figure (compare) and shown as a table and a PNG (report); a takeoff of our own stack is flown and
+its link recorded by record_flight, the one module here that needs rospy.
 """
