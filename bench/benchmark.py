@@ -8,26 +8,22 @@ time to hover split by phase. Then N vehicles for each N in --scale until a vehi
 the bar (p99 inter-arrival <= 60 ms, no gap over 200 ms, and no simulated PX4 fallen so far behind
 its clock that it skipped steps), and then the largest N asked for, whose row is the target's.
 Prints a markdown table and writes JSON.
-Run it through `./run bench` (which sets up and sources the workspace); `./run bench --replay [args]`
-measures the bridge alone on PX4 SITL's recorded stream instead (bench/replay_bench.py).
+Run it through `./run bench` (which sets up and sources the workspace; it also dispatches the other
+benchmarks here: --replay, --junk, --sim-fleet). What they share is bench/harness.py.
 """
 
 import argparse
-import json
 import os
-import platform
 import signal
 import subprocess
 import sys
 import tempfile
 import time
 
-import rosgraph
 import rospy
 from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import State
 
-from offboard_py.master import MasterTimeout, wait_for_master
 from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
 from offboard_py.stack import BRIDGES, SIM_PROCESSES, VEHICLES_PER_SIM, rospack_find
@@ -35,15 +31,14 @@ from offboard_py.sim import main as sim_main
 from offboard_py.sim.loop import STALL_S
 from offboard_py.tools.demo import launch_failure
 from offboard_py.tools.streamstats import latencies_ms, percentile, stream_quality
+
+from harness import (MAVROS_CPU_PCT, PX4_SITL_CPU_PCT, descends_from, fmt, forget_stale_nodes, machine,  # noqa: E402
+                     start_master, stop_master, write_json)
 from proc_stats import cpu_seconds, wakeups  # bench/ is this script's folder, first on sys.path
 
 BAR_P99_MS, BAR_MAX_MS = 60.0, 200.0
 SCALE_TARGET = 32  # vehicles on the development machine (2 cores)
 STACK_TARGET_PCT = 5.0  # node + bridge + simulator, % of one core a vehicle
-# Real mavros 1.21 and real PX4 SITL (SIH) hovering under the project's offb_node, % of one core, two runs each:
-# reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts" (stack A)
-MAVROS_CPU_PCT = (2.08, 2.33)
-PX4_SITL_CPU_PCT = (9.77, 11.08)
 
 
 class Watch:
@@ -77,24 +72,6 @@ class Watch:
         self.stop_watching_pose()
         for sub in self.subs:
             sub.unregister()
-
-
-def parent_pid(pid):
-    try:
-        return int(open('/proc/%s/stat' % pid).read().rsplit(')', 1)[1].split()[1])
-    except (OSError, IndexError, ValueError):
-        return 0
-
-
-def descends_from(pid, ancestor):
-    """Whether process pid is ancestor's child, grandchild, ...: on a shared machine other launches' nodes
-    run in the same namespaces (uav0 ...) and must not be counted."""
-    pid = int(pid)
-    while pid > 1:
-        pid = parent_pid(pid)
-        if pid == ancestor:
-            return True
-    return False
 
 
 # What each process of the stack is, by its command line. The ROS side is the 'bridge' role whichever it is:
@@ -150,35 +127,6 @@ def startup_bound_s(n):
     """How long n vehicles may take from the launch to hover: about 25 s for one, and on 2 cores
     the start-up of 3 Python processes a vehicle (imports, registration) grows with n."""
     return 180.0 + 4.0 * n
-
-
-def forget_stale_nodes(prefixes=('/uav', '/sim_clock')):
-    """Unregister from the master what nodes of a stopped launch left registered (a node killed
-    before it could unregister). The master keeps such a registration with its old XML-RPC
-    URI; when the next launch registers a node of the same name, the master tells that URI to
-    shut down, and if another node of the new launch has been given the same port, that node
-    is shut down instead ("new node registered with same name"; seen once at 24 vehicles).
-    Returns the names unregistered."""
-    master = rosgraph.Master('/benchmark_cleanup')
-    pubs, subs, srvs = master.getSystemState()
-    stale = sorted({node for group in (pubs, subs, srvs) for _, nodes in group for node in nodes
-                    if node.startswith(prefixes)})
-    for node in stale:
-        as_node = rosgraph.Master(node)
-        try:
-            api = master.lookupNode(node)
-            for topic, nodes in pubs:
-                if node in nodes:
-                    as_node.unregisterPublisher(topic, api)
-            for topic, nodes in subs:
-                if node in nodes:
-                    as_node.unregisterSubscriber(topic, api)
-            for service, nodes in srvs:
-                if node in nodes:
-                    as_node.unregisterService(service, master.lookupService(service))
-        except rosgraph.MasterException:
-            continue  # gone meanwhile
-    return stale
 
 
 def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0, beside=None, pack_datagrams=False,
@@ -295,15 +243,7 @@ def framing(pack_datagrams):
     return 'one MAVLink message a datagram, as PX4 sends'
 
 
-def fmt(value, digits=1):
-    return '-' if value is None else ('%.*f' % (digits, value))
-
-
 def main():
-    if '--replay' in sys.argv[1:]:  # the bridge alone on PX4 SITL's recorded stream: bench/replay_bench.py
-        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-        import replay_bench
-        return replay_bench.main([a for a in rospy.myargv()[1:] if a != '--replay'])
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--duration', type=float, default=60.0, help='hover seconds measured for one vehicle (60)')
     p.add_argument('--scale', default='1,2,4,8,16,24,32', help='vehicle counts to try, in order (1,2,4,8,16,24,32)')
@@ -351,47 +291,6 @@ def main():
         return _measure(args, scale, logdir)
     finally:
         stop_master(core)
-
-
-def machine():
-    """What the figures were measured on."""
-    return {'cores': os.cpu_count(), 'cpu': platform.processor() or platform.machine(),
-            'python': platform.python_version(), 'kernel': platform.release()}
-
-
-def write_json(result, path):
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, 'w') as out:
-        json.dump(result, out, indent=2)
-    print('JSON: %s' % os.path.abspath(path))
-
-
-def start_master(logdir, fail):
-    """A roscore unless a master is up (one master for every run: the measuring node must stay
-    registered with it); None when one was up. fail(message) on a master that does not come up."""
-    if rosgraph.is_master_online():
-        return None
-    core = subprocess.Popen(['roscore'], stdout=open(os.path.join(logdir, 'roscore.log'), 'w'),
-                            stderr=subprocess.STDOUT, start_new_session=True)
-
-    def master_up_or_roscore_gone():
-        return rosgraph.is_master_online() or core.poll() is not None
-    try:  # we start the master: no "is roscore running?" while it comes up
-        wait_for_master('benchmark', 30.0, is_online=master_up_or_roscore_gone, say=lambda text: None)
-    except MasterTimeout as err:
-        fail('%s (see %s/roscore.log)' % (err, logdir))
-    if core.poll() is not None:
-        fail('roscore exited with code %s (see %s/roscore.log)' % (core.returncode, logdir))
-    return core
-
-
-def stop_master(core):
-    if core is not None:
-        os.killpg(core.pid, signal.SIGINT)
-        try:
-            core.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(core.pid, signal.SIGKILL)
 
 
 def _measure_speed(args, logdir, single):

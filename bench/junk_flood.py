@@ -26,6 +26,7 @@ import rospy
 from rosgraph_msgs.msg import Log
 
 import benchmark
+import harness
 from soak_stack import junk_for_bridge  # junk that never says what would end a hover
 from offboard_py.testing import mavlink_fuzz, ports
 
@@ -133,7 +134,7 @@ def measure(rate, args, pool, logdir):
 
 
 def row(step):
-    fmt = benchmark.fmt
+    fmt = harness.fmt
     flood = step.get('flood', {})
     sent = '%s' % fmt(flood.get('achieved_rate'), 0) if flood else '-'
 
@@ -174,7 +175,7 @@ def main():
         p.error('--duration must be above 1 s, --pull-timeout and --startup-timeout above 0, --pool 1..100000')
     pool = list(junk_for_bridge(random.Random(args.seed), args.pool, ports.system_id(INSTANCE)))
     logdir = tempfile.mkdtemp(prefix='offboard_junk_')
-    core = benchmark.start_master(logdir, p.error)
+    core = harness.start_master(logdir, p.error)
     rospy.init_node('junk_flood', anonymous=True, disable_signals=True)
     header = ['| junk (datagrams/s) | sent (/s) | setpoint inter-arrival p50 / p99 / max (ms) | gaps > 100 ms '
               '| parameter pull | mission pull | holds |', '|---|---|---|---|---|---|---|']
@@ -189,7 +190,7 @@ def main():
             if misses >= 2 and not args.keep_going:
                 break
     finally:
-        benchmark.stop_master(core)
+        harness.stop_master(core)
     # the largest rate below which every rate tried held the bar
     held = None
     for step in steps:
@@ -200,10 +201,10 @@ def main():
           'complete within %.0f s of the connection' % (BAR_P99_MS, args.pull_timeout))
     print('largest junk rate holding it (every rate up to it held): %s datagrams/s' % held)
     result = {'command': ' '.join(sys.argv), 'date': datetime.date.today().isoformat(),
-              'machine': benchmark.machine(),
+              'machine': harness.machine(),
               'bar_p99_ms': BAR_P99_MS, 'pull_timeout_s': args.pull_timeout, 'steps': steps,
               'largest_rate_holding': held, 'table': header + [row(s) for s in steps]}
-    benchmark.write_json(result, args.out)
+    harness.write_json(result, args.out)
     return 0
 
 

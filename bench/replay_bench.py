@@ -35,12 +35,12 @@ from mavros_msgs.msg import State
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-import benchmark  # noqa: E402  (bench/ is not a package)
+import harness  # noqa: E402  (bench/ is not a package)
 from proc_stats import cpu_seconds, wakeups  # noqa: E402
 from offboard_py import stack  # noqa: E402
 from offboard_py.tools.streamstats import latencies_ms, percentile  # noqa: E402
 
-MAVROS_CPU_PCT = benchmark.MAVROS_CPU_PCT  # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts"
+MAVROS_CPU_PCT = harness.MAVROS_CPU_PCT  # reference/px4-sitl-measured.md, "Real mavros 1.21 beside our parts"
 
 CPU_TARGET_PCT = 2.0
 LATENCY_P99_MS = 2.0
@@ -58,12 +58,12 @@ def side_command(side, mavros_setup=None):
 
 
 def process_named(pid, name):
-    """pid itself, or a process under it (benchmark.descends_from), whose command name (/proc/PID/comm, 15
+    """pid itself, or a process under it (harness.descends_from), whose command name (/proc/PID/comm, 15
     characters at most) is name; None if none."""
     for candidate in [pid] + [int(p) for p in filter(str.isdigit, os.listdir('/proc'))]:
         try:
             if open('/proc/%d/comm' % candidate).read().strip() == name[:15] and (
-                    candidate == pid or benchmark.descends_from(candidate, pid)):
+                    candidate == pid or harness.descends_from(candidate, pid)):
                 return candidate
         except OSError:
             continue
@@ -264,7 +264,7 @@ def main(argv=None):
         print('real mavros: %s' % where, flush=True)
         sides = ('bridge', 'mavros')
     logdir = tempfile.mkdtemp(prefix='offboard_replay_')
-    core = benchmark.start_master(logdir, p.error)
+    core = harness.start_master(logdir, p.error)
     rospy.init_node('replay_benchmark', anonymous=True, disable_signals=True)
     runs = []
     try:
@@ -273,20 +273,20 @@ def main(argv=None):
                 print('replay %d of %d: %s, PX4 SITL hover, one message a datagram, %.0f s window ...'
                       % (i + 1, args.runs, SIDES[side], args.duration), flush=True)
                 runs.append(run_once(args, logdir, len(runs), side))
-                benchmark.forget_stale_nodes(('/mavros', '/offb_node'))
+                harness.forget_stale_nodes(('/mavros', '/offb_node'))
                 print_run(runs[-1])
         if args.compare:
             print(compare_table(runs), flush=True)
     finally:
-        benchmark.stop_master(core)
-    result = {'machine': benchmark.machine(), 'command': ' '.join(sys.argv), 'bridge_src': args.bridge_src, 'date_utc': time.strftime(
+        harness.stop_master(core)
+    result = {'machine': harness.machine(), 'command': ' '.join(sys.argv), 'bridge_src': args.bridge_src, 'date_utc': time.strftime(
         '%Y-%m-%d %H:%M', time.gmtime()), 'runs': runs, 'logs': logdir}
-    benchmark.write_json(result, args.out)
+    harness.write_json(result, args.out)
     return 0
 
 
 def print_run(r):
-    fmt = benchmark.fmt
+    fmt = harness.fmt
     side = r.get('side', 'bridge')
     cpu = r['cpu_pct']['bridge']  # the ROS side's process, whichever it is
     lines = ['| replayed PX4 SITL hover (one message a datagram), %s | value | target |' % SIDES[side], '|---|---|---|',
@@ -315,7 +315,7 @@ def print_run(r):
 def compare_table(runs):
     """The bridge and real mavros side by side: each figure as the runs' values in order, the ratio of the
     medians, and the telemetry topics both publish with each one's rate."""
-    fmt = benchmark.fmt
+    fmt = harness.fmt
     by_side = {side: [r for r in runs if r.get('side') == side] for side in SIDES}
 
     def values(side, get):

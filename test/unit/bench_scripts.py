@@ -1,5 +1,5 @@
 """bench/'s scripts as modules, for the offline tests of their pure parts. bench/ is not a package and
-its scripts import their neighbours (replay_bench imports benchmark), so bench/ is on sys.path while
+its scripts import their neighbours (the harness, bench/harness.py), so bench/ is on sys.path while
 one loads."""
 
 import importlib.util
