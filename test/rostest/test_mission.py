@@ -9,6 +9,8 @@ landing (mavros/extended_state) at its time, then the disarm; AUTO.MISSION and a
 the flight. Nothing here is our stack's own: it runs unchanged on real mavros and real PX4.
 """
 
+import json
+import os
 import rospy
 import rostest
 from mavros_msgs.msg import ExtendedState, Waypoint, WaypointReached
@@ -20,9 +22,12 @@ from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle, now
 PKG = 'offboard_py'
 NAN = float('nan')
 # the same section, the two PX4 runs: arm -> MISSION_ITEM_REACHED 0..4 and arm -> landed (s)
-REACHED_S = ((7.95, 8.74), (13.74, 15.50), (20.37, 22.25), (27.15, 29.07), (35.70, 37.88))
-LANDED_S = (54.02, 55.06)
-LANDED_TO_DISARMED_S = 0.41  # the slower run (0.02 and 0.41 s)
+with open(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..', 'reference',
+                       'px4-sitl-flight-figures.json')) as _f:
+    _PX4 = json.load(_f)  # PX4 SITL's figures (reference/px4-sitl-measured.md, checked by test_reference_figures)
+REACHED_S = tuple(tuple(_PX4['figures']['mission']['arm_to_item_%d_s' % seq]) for seq in range(5))
+LANDED_S = tuple(_PX4['figures']['mission']['arm_to_landed_s'])
+LANDED_TO_DISARMED_S = max(_PX4['not_compared']['mission landed -> disarmed (s)'])  # the slower run
 # rostest's bounds are generous (the benchmark keeps the tight ones): 25 % either side of the runs,
 # for ROS's topic and service delays and a simulated clock
 WIDEN = 0.25

@@ -1,7 +1,7 @@
 """The simulated multicopter flies like PX4 SITL: the recorded profiles of
 reference/px4-sitl-measured.md flown offline against the simulator's flight stack
 (flight_profiles: the Flight on a simulated clock, no sockets, a few seconds for all of them),
-their figures held within 10 % of PX4's (px4_flight_reference.json: PX4's numbers and traces,
+their figures held within 10 % of PX4's (reference/px4-sitl-flight-figures.json: PX4's numbers and traces,
 copied from the reference files), the parameters driving the flight as on PX4, and runs that
 repeat exactly for a seed.
 
@@ -20,7 +20,7 @@ import pytest
 import flight_profiles as fp
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-with open(os.path.join(HERE, 'px4_flight_reference.json')) as _f:
+with open(os.path.join(HERE, '..', '..', 'reference', 'px4-sitl-flight-figures.json')) as _f:
     REFERENCE = json.load(_f)
 TOLERANCE = REFERENCE['tolerance']
 
