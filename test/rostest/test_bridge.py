@@ -3,6 +3,7 @@
 
 import math
 import os
+import signal
 import threading
 import time
 
@@ -24,6 +25,7 @@ from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim.mavlink.sensor_messages import BARO_RATE_HZ, MAG_RATE_HZ
 from offboard_py.testing.mavlink_listener import MavlinkListener
+from offboard_py.testing.processes import OutputProcess
 from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, yaw_of
 from offboard_py.bridge.mavlink_passthrough import frame_to_msg
 from offboard_py.testing.mavros_typemasks import IGNORE_ACCELERATION, IGNORE_POSITION, POSITION_AND_YAW, VELOCITY_ONLY
@@ -91,20 +93,32 @@ class BridgeTest(OffboardTestCase):
                         'system_status STANDBY once the checks pass', [self.sim])
 
     def test_01b_param_set_right_after_connection(self):
-        """As PX4's posctl integration test: set COM_RCL_EXCEPT as soon as the topics are up,
-        before the bridge's own pull 10 s after connecting. mavros answers false there."""
-        self.wait_for_connected(self.sim, 15.0)
-        first = next(t for t, s in self.sim.states if s.connected)
-        rospy.wait_for_service('mavros/param/set', 5.0)
-        req = ParamSetRequest(param_id='COM_RCL_EXCEPT')
-        req.value.integer = 4
-        res = rospy.ServiceProxy('mavros/param/set', ParamSet)(req)
-        done = time.time()  # ROS time, as the Vehicle's state stamps
-        self.assertLess(done - first, 10.0, 'this test must run before the pull; it ran %.1f s after connecting'
-                        % (done - first))
-        self.assertTrue(res.success and res.value.integer == 4, 'set before the pull: %s' % res)
-        got = rospy.ServiceProxy('mavros/param/get', ParamGet)(param_id='MPC_XY_VEL_MAX')
-        self.assertTrue(got.success and got.value.real == 12.0, 'get before the pull: %s' % got)
+        """As PX4's posctl integration test: set COM_RCL_EXCEPT as soon as the topics are up, before the
+        bridge's own pull 10 s after connecting (mavros answers false there). On a simulated PX4 and a bridge
+        of this test's own, started here, so the test holds wherever it runs in the order."""
+        bridge_port, fcu_port, gcs_port, gcs_remote = (rospy.get_param('~early_port_%d' % k) for k in range(4))
+        sim = OutputProcess(['rosrun', PKG, 'sim_px4.py', '--speed', '1', '--local-port', str(fcu_port), '--remote-port',
+                             str(bridge_port), '--gcs-port', str(gcs_port), '--gcs-remote-port', str(gcs_remote)])
+        bridge = OutputProcess(['rosrun', PKG, 'mavros_bridge.py', '__name:=mavros', '__ns:=early',
+                                '_fcu_url:=udp://127.0.0.1:%d@127.0.0.1:%d' % (bridge_port, fcu_port),
+                                '_gcs_url:='])
+        try:
+            early = Vehicle('early/mavros')
+            self.wait_for_connected(early, 20.0)
+            first = next(t for t, s in early.states if s.connected)
+            rospy.wait_for_service('early/mavros/param/set', 5.0)
+            req = ParamSetRequest(param_id='COM_RCL_EXCEPT')
+            req.value.integer = 4
+            res = rospy.ServiceProxy('early/mavros/param/set', ParamSet)(req)
+            done = time.time()  # ROS time, as the Vehicle's state stamps
+            self.assertLess(done - first, 10.0, 'the set came %.1f s after connecting, after the pull'
+                            % (done - first))
+            self.assertTrue(res.success and res.value.integer == 4, 'set before the pull: %s' % res)
+            got = rospy.ServiceProxy('early/mavros/param/get', ParamGet)(param_id='MPC_XY_VEL_MAX')
+            self.assertTrue(got.success and got.value.real == 12.0, 'get before the pull: %s' % got)
+        finally:
+            bridge.stop(signal.SIGINT, timeout_s=10.0)
+            sim.stop(signal.SIGINT, timeout_s=10.0)
 
     def test_02_mode_strings_for_px4_modes(self):
         self.wait_for_connected(self.sim, 15.0)
