@@ -2,7 +2,9 @@
 """Link cuts in hover, through the relay's control port. What PX4 and mavros do:
 - setpoints cut (telemetry flowing): the vehicle leaves OFFBOARD COM_OF_LOSS_T after the
   last setpoint (seen on the next HEARTBEAT, so up to 1 s later), and never goes back by itself;
-- both ways for 2 s, under conn/timeout: the bridge stays connected throughout;
+- both ways for 2 s, well under conn/timeout: the bridge stays connected throughout. The HEARTBEATs around
+  the cut are up to cut + one period (3 s) apart; conn/timeout is 6 s here so that a scheduling stall of the
+  simulator or relay (0.2 s of wall time is 1 s of simulated time at 5x) is not read as a lost link;
 - both ways for LONG_CUT_S, over conn/timeout: the bridge reports disconnected conn/timeout after the
   last HEARTBEAT, then connected when the link is back; the vehicle landed and disarmed meanwhile.
 Each time the node asks for OFFBOARD again (re-arming if needed) and the vehicle returns to 2 m.
@@ -47,9 +49,9 @@ class LinkCutTest(OffboardTestCase):
         start = self.cut(2.0, 'to_fcu')
         self.wait_until(lambda: vehicle.state.mode != 'OFFBOARD', loss_s + HEARTBEAT_PERIOD_S + 2.0,
                         'leaving OFFBOARD without setpoints', [vehicle])
-        left = next(t for t, s in vehicle.states_since(start) if s.mode != 'OFFBOARD')
+        left = next(s.header.stamp.to_sec() for t, s in vehicle.states_since(start) if s.mode != 'OFFBOARD')
         self.assertGreaterEqual(left - start, loss_s - 0.05, 'failsafe before COM_OF_LOSS_T')
-        self.assertLessEqual(left - start, loss_s + HEARTBEAT_PERIOD_S + 0.6, 'failsafe late')
+        self.assertLessEqual(left - start, loss_s + HEARTBEAT_PERIOD_S + 1.0, 'failsafe late')
         self.assertIn(vehicle.state.mode, ('AUTO.RTL', 'AUTO.LAND', 'AUTO.LOITER'))
         rospy.loginfo('setpoints cut: %s after %.2f s', vehicle.state.mode, left - start)
         self.assertTrue(all(s.connected for _, s in vehicle.states_since(start)))
@@ -69,13 +71,14 @@ class LinkCutTest(OffboardTestCase):
         # 3. both ways for LONG_CUT_S: disconnected after conn/timeout, the vehicle lands and disarms;
         #    when the link is back the node re-arms it and it climbs to 2 m again
         self.pause(3.0)
+        # both instants on the bridge's clock (the stamps of its State messages), not when the test read them
         with vehicle.lock:
-            last_heartbeat = vehicle.states[-1][0]
+            last_heartbeat = vehicle.states[-1][1].header.stamp.to_sec()
         start = self.cut(LONG_CUT_S)
         self.wait_until(lambda: not vehicle.state.connected, conn_timeout_s + 2.0, 'disconnected', [vehicle])
-        lost = next(t for t, s in vehicle.states_since(start) if not s.connected)
+        lost = next(s.header.stamp.to_sec() for t, s in vehicle.states_since(start) if not s.connected)
         self.assertGreaterEqual(lost - last_heartbeat, conn_timeout_s - 0.1, 'disconnected before conn/timeout')
-        self.assertLessEqual(lost - last_heartbeat, conn_timeout_s + 0.5, 'disconnected late')
+        self.assertLessEqual(lost - last_heartbeat, conn_timeout_s + 1.0, 'disconnected late')
         self.assertFalse(vehicle.state.armed or vehicle.state.mode, 'state not reset on disconnection: %s'
                          % vehicle.describe())
         rospy.loginfo('%.0f s cut: disconnected %.2f s after the last heartbeat', LONG_CUT_S, lost - last_heartbeat)
