@@ -16,7 +16,9 @@ Who uses which N:
           fleet_shared_sims.test 19, 20 and 21 (20 and 21 also the pytest tiers': catkin runs the
           meta tier and the rostests one after another, the simulator tier runs in a network
           namespace of its own or, without one, as catkin's target too)
-  20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
+  20..37  the pytest tiers (test/sim, test/meta): free_instances() per test; the failsafe scenarios
+          (failsafe_*.test) take 16 and 22..27, as catkin runs them one after another and the
+          pytest tiers run in network namespaces of their own under ./run test
   38, 39  a .test file run by hand without `instance:=N` (its default)
 The formula itself is offboard_py.sitl_ports's (PX4 SITL's); this module checks the instance
 range and hands out instances and extra ports.
