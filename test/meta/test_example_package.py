@@ -5,7 +5,8 @@ test runs in (the workspace that holds offboard_py, already sourced), built with
 the Python on PATH, and its rostest run in a network namespace of its own (`unshare -n`, or
 `unshare -rn` without root; skipped, saying why, when neither is allowed), so its vehicle's ports
 clash with nothing. Its result is read from rostest's RESULT line and the JUnit file it writes.
-Then, told to fly to 1 m instead of 2, it must fail saying where the vehicle was.
+Then, told to fly to 1 m instead of 2, it must fail saying where the vehicle was. Its failsafe test (the
+battery drained by the test kit's Failures) runs too.
 """
 
 import os
@@ -70,20 +71,21 @@ def workspace():
         yield os.path.join(ws, 'devel', 'setup.bash')
 
 
-def run_example(setup_bash, *launch_args):
-    """rostest my_offboard_check hover.test in a network namespace of its own; (RESULT line, failure texts, output)."""
+def run_example(setup_bash, *launch_args, test_file='hover.test'):
+    """rostest my_offboard_check TEST_FILE in a network namespace of its own; (RESULT line, failure texts, output)."""
     unshare = _isolation()
     if unshare is None:
         pytest.skip('no network namespace for the example\'s vehicle (unshare -n and unshare -rn are not allowed '
                     'here), and on the shared loopback its ports could clash with other tests')
     with tempfile.TemporaryDirectory(prefix='my_results-') as results:
         inner = ('ip link set lo up && source %s && export ROS_HOSTNAME=localhost && unset ROS_IP && '
-                 'exec rostest --results-base-dir %s my_offboard_check hover.test %s'
-                 % (shlex.quote(setup_bash), shlex.quote(results), ' '.join(map(shlex.quote, launch_args))))
+                 'exec rostest --results-base-dir %s my_offboard_check %s %s'
+                 % (shlex.quote(setup_bash), shlex.quote(results), test_file,
+                    ' '.join(map(shlex.quote, launch_args))))
         start = time.monotonic()
         _, output = _run(' '.join(map(shlex.quote, unshare + ['bash', '-c', inner])), ROSTEST_TIMEOUT_S,
-                         'rostest my_offboard_check hover.test %s' % ' '.join(launch_args))
-        print('rostest my_offboard_check hover.test %s: %.1f s' % (' '.join(launch_args), time.monotonic() - start))
+                         'rostest my_offboard_check %s %s' % (test_file, ' '.join(launch_args)))
+        print('rostest my_offboard_check %s %s: %.1f s' % (test_file, ' '.join(launch_args), time.monotonic() - start))
         result = next((ANSI_COLOUR.sub('', line).strip() for line in output.splitlines() if ' * RESULT: ' in line),
                       None)
         files = [os.path.join(d, f) for d, _, fs in os.walk(results) for f in fs if f.startswith('rosunit-')]
@@ -101,6 +103,13 @@ def test_the_example_package_builds_and_passes(workspace):
     assert not failures, 'the example failed:\n%s\nrostest said:\n%s' % ('\n'.join(failures), output[-3000:])
     assert result == '* RESULT: SUCCESS', \
         'rostest did not say RESULT: SUCCESS (%r); it said:\n%s' % (result, output[-3000:])
+
+
+def test_the_example_failsafe_test_passes(workspace):
+    """failsafe.test: the battery drained to 6 % by the test kit's Failures; the node leaves PX4's return alone."""
+    result, failures, output = run_example(workspace, test_file='failsafe.test')
+    assert not failures, 'the failsafe example failed:\n%s\nrostest said:\n%s' % ('\n'.join(failures), output[-3000:])
+    assert result == '* RESULT: SUCCESS', (result, output[-3000:])
 
 
 def test_the_example_fails_when_the_node_flies_elsewhere(workspace):

@@ -13,7 +13,8 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input
 from offboard_py.sim.mavlink import link_stats, messages, sensor_messages
 from offboard_py.sim.mavlink import streams as sim_streams
-from offboard_py.sim.flight import BatterySimulator, Flight
+from offboard_py.sim.battery_simulator import BatterySimulator
+from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
@@ -144,9 +145,9 @@ def test_readiness_failures_and_disarm_in_status():
     assert (st.system_status, st.prearm_ok) == (M.MAV_STATE_UNINIT, False)
     st = f.status(5.0)
     assert (st.system_status, st.prearm_ok) == (M.MAV_STATE_STANDBY, True)
-    f.inject_failure('unit 0', True)
+    assert f.inject_failure(M.FAILURE_UNIT_SENSOR_GYRO, M.FAILURE_TYPE_OFF, 0, 5.0) is True
     assert (f.status(6.0).system_status, f.status(6.0).prearm_ok) == (M.MAV_STATE_UNINIT, False)
-    f.inject_failure('unit 0', False)
+    assert f.inject_failure(M.FAILURE_UNIT_SENSOR_GYRO, M.FAILURE_TYPE_OK, 0, 6.0) is True
     assert f.request_arming(True, False, 7.0) == ACCEPTED
     assert f.status(7.0).system_status == M.MAV_STATE_ACTIVE
     assert f.request_arming(False, False, 8.0) == ACCEPTED
@@ -213,22 +214,28 @@ def test_sys_status_message_follows_the_prearm_verdict():
 # -- the battery -------------------------------------------------------------------------------
 
 def test_battery_full_at_boot_drains_only_while_armed():
-    battery = BatterySimulator(endurance_s=100.0)
+    """PX4's battery_simulator (BatterySimulator.cpp): 1/SIM_BAT_DRAIN a second while armed, down to
+    SIM_BAT_MIN_PCT, full again once disarmed; 4 cells from BAT1_V_CHARGED to BAT1_V_EMPTY."""
+    params = ParamStore({'SIM_BAT_DRAIN': 100.0})
+    battery = BatterySimulator(params, 0.0)
     assert battery.remaining == 1.0 and battery.voltage_v == pytest.approx(16.2)
     battery.step(10.0, armed=False)
     assert battery.remaining == 1.0
-    battery.step(10.0, armed=True)
-    assert battery.remaining == pytest.approx(0.9) and battery.voltage_v < 16.2
-    battery.step(1000.0, armed=True)
-    assert battery.remaining == 0.0 and battery.voltage_v == pytest.approx(14.0)
+    battery.step(20.0, armed=True)
+    assert battery.percentage == pytest.approx(0.9) and battery.voltage_v < 16.2
+    assert 0.9 < battery.remaining < 0.92, 'the charge is the voltage through a 1 s filter'
+    battery.step(200.0, armed=True)
+    assert battery.percentage == pytest.approx(0.5) and battery.voltage_v == pytest.approx(4 * (3.6 + 0.45 / 2))
+    battery.step(201.0, armed=False)
+    assert battery.percentage == 1.0
 
 
 def test_battery_status_message_and_charge_states():
     f = make()
     msg = builder(f).build('BATTERY_STATUS', f.status(0.0), 0.0)
     assert (msg.battery_function, msg.type, msg.battery_remaining, msg.charge_state) == (1, 1, 100, 1)
-    assert messages.battery_charge_state(0.1) == M.MAV_BATTERY_CHARGE_STATE_LOW
-    assert messages.battery_charge_state(0.06) == M.MAV_BATTERY_CHARGE_STATE_CRITICAL
+    assert messages.battery_charge_state(1) == M.MAV_BATTERY_CHARGE_STATE_LOW
+    assert messages.battery_charge_state(2) == M.MAV_BATTERY_CHARGE_STATE_CRITICAL
     f.request_arming(True, False, 0.0)
     fly(f, 0.0, 5.0)
     assert f.status(5.0).battery_remaining < 1.0

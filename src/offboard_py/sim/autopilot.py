@@ -154,6 +154,8 @@ class SimulatedPx4:
         if mission_type == mission_manager.MISSION_TYPE_MISSION:
             self.flight.load_mission(self.mission_manager.mission())
             self.say_events()
+        elif mission_type == mavlink.MAV_MISSION_TYPE_FENCE:
+            self.flight.load_fence(self.mission_manager.items[mission_type])
 
     # -- the cycle -----------------------------------------------------------------------------
 

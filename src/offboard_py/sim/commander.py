@@ -20,10 +20,18 @@ Rules, as current PX4 applies them (reference/px4-behaviour.md):
   DO_SET_MODE and SET_MODE name the mode as Commander::handle_command maps them (`set_mode_target`):
   AUTO.READY, AUTO.RTGS, AUTO.VTOL_TAKEOFF and the old RATTITUDE are refused; nothing leaves
   TERMINATION.
-- The offboard signal: an accepted setpoint younger than COM_OF_LOSS_T. Lost while armed
-  in OFFBOARD: the failsafe. With RC, COM_OBL_RC_ACT applies; its RC-based choices
-  (Position, Altitude, Stabilized) are unavailable without RC, and NAV_RCL_ACT applies
-  instead (default Return). The vehicle never goes back to OFFBOARD by itself.
+- The offboard signal: an accepted setpoint younger than COM_OF_LOSS_T.
+- Failsafes are PX4's failsafe framework (sim.failsafe), fed each cycle with the conditions PX4's checks
+  report (failsafe_flags_s): the offboard signal (lost in OFFBOARD: COM_OBL_RC_ACT, whose RC-based
+  choices fall to NAV_RCL_ACT without RC), manual control lost (the simulated RC is always on; a ground
+  station's MANUAL_CONTROL stopping for COM_RC_LOSS_T: NAV_RCL_ACT, only where it was there at arming), the
+  ground station lost (NAV_DLL_ACT: no GCS HEARTBEAT for COM_DL_LOSS_T, Commander::dataLinkCheck), the
+  geofence (GF_ACTION), the battery's warning (COM_LOW_BAT_ACT) and a position the estimator lost (the
+  modes that need it fall back). The mode flying is the action's; the user's choice stays (CURRENT_MODE's
+  intended mode) and a mode change by the user takes over where the action allows it. The vehicle never
+  goes back to OFFBOARD by itself.
+- What the checks say goes through PX4's report (sim.health_checks): "Low battery", "Emergency battery
+  level", "Geofence: ...", the GCS one, at most every 2 s, with the SYS_STATUS health they clear.
 - Arming: refused while not ready, with an injected failure, in OFFBOARD without the
   signal, in a manual mode without RC, in AUTO.MISSION without a mission, in AUTO.LAND
   or AUTO.RTL; DENIED while not landed. Disarming is TEMPORARILY_REJECTED unless the land
@@ -41,6 +49,9 @@ does). Pure: time is passed in, what it knows of the vehicle is set by the fligh
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
+from offboard_py.sim import failsafe as fs
+from offboard_py.sim.battery_simulator import (WARNING_CRITICAL, WARNING_EMERGENCY, WARNING_LOW, WARNING_NONE)
+from offboard_py.sim.health_checks import Check, HealthReport
 
 # names mavros knows (px4_modes.MODES) for which PX4 main has no navigation state
 REFUSED_MODES = frozenset(('AUTO.READY', 'AUTO.RTGS', 'RATTITUDE'))
@@ -58,12 +69,31 @@ _AUTO_SUB_MODES = {px4_modes.SUB_LOITER: 'AUTO.LOITER', px4_modes.SUB_MISSION: '
                    px4_modes.SUB_RTL: 'AUTO.RTL', px4_modes.SUB_TAKEOFF: 'AUTO.TAKEOFF',
                    px4_modes.SUB_LAND: 'AUTO.LAND', px4_modes.SUB_FOLLOW_TARGET: 'AUTO.FOLLOW_TARGET',
                    px4_modes.SUB_PRECLAND: 'AUTO.PRECLAND'}
-RC_MODES = frozenset(('POSCTL', 'ALTCTL', 'STABILIZED'))
-# COM_OBL_RC_ACT and NAV_RCL_ACT values (PX4's parameter documentation)
-OBL_ACTIONS = {0: 'POSCTL', 1: 'ALTCTL', 2: 'STABILIZED', 3: 'AUTO.RTL', 4: 'AUTO.LAND', 5: 'AUTO.LOITER',
-               6: 'terminate', 7: 'disarm'}
-RCL_ACTIONS = {0: 'AUTO.LOITER', 1: 'AUTO.LOITER', 2: 'AUTO.RTL', 3: 'AUTO.LAND', 4: 'AUTO.LAND',
-               5: 'terminate', 6: 'disarm'}
+# PX4's Descend (a landing without a position) is AUTO.LAND on MAVLink (px4_custom_mode.h); flown as the landing
+FLOWN_AS = {'DESCEND': 'AUTO.LAND'}
+# Commander::dataLinkCheck through telemetry_status: a GCS HEARTBEAT counts for HEARTBEAT_TIMEOUT_US, and
+# MavlinkReceiver::CheckHeartbeats looks every half of it
+GCS_HEARTBEAT_TIMEOUT_S = 2.5
+GCS_HEARTBEAT_CHECK_S = GCS_HEARTBEAT_TIMEOUT_S / 2
+NO_POSITION = fs.Flags(local_position_invalid=True, local_position_invalid_relaxed=True, global_position_invalid=True)
+HEALTH_CHECK_S = 0.1  # Commander runs its health and arming checks at 10 Hz
+# the checks' STATUSTEXT lines and what they clear (HealthAndArmingChecks/checks/*.cpp)
+BATTERY_CHECKS = {
+    WARNING_LOW: Check('check_battery_low', mavlink.MAV_SEVERITY_CRITICAL, 'Low battery',
+                       mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, False),
+    WARNING_CRITICAL: Check('check_battery_critical', mavlink.MAV_SEVERITY_CRITICAL, 'Critical battery',
+                            mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
+    WARNING_EMERGENCY: Check('check_battery_emergency', mavlink.MAV_SEVERITY_EMERGENCY, 'Emergency battery level',
+                             mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
+}
+NO_GCS_CHECK = Check('check_rc_dl_no_dllink', mavlink.MAV_SEVERITY_WARNING,
+                     'Preflight Fail: No connection to the GCS', 0, True)
+GEOFENCE_CHECK = Check('check_gf_violation_custom_gf', mavlink.MAV_SEVERITY_CRITICAL,
+                       'Geofence: approaching or outside geofence', 0, True)
+GEOFENCE_DISTANCE_CHECK = Check('check_gf_violation_max_hor_dist', mavlink.MAV_SEVERITY_CRITICAL,
+                                'Geofence: exceeding maximum distance to Home', 0, True)
+GEOFENCE_ALTITUDE_CHECK = Check('check_gf_violation_max_alt', mavlink.MAV_SEVERITY_CRITICAL,
+                                'Geofence: exceeding maximum altitude above Home', 0, True)
 
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
@@ -119,12 +149,17 @@ class Commander:
     def __init__(self, params, now_s, ready_delay_s=5.0, rc=False):
         self.params = params
         self.boot_s = now_s
+        self.now_s = now_s
         self.ready_delay_s = ready_delay_s
         self.ready_announced = False
-        self.rc = rc
+        self.rc = rc               # an RC receiver is simulated (always on)
+        self.manual_control_s = None  # the last MANUAL_CONTROL (a ground station's joystick)
         self.landed = True         # the land detector's word, kept current by the flight stack
         self.maybe_landed = True   # ... and its maybe-landed stage
         self.has_mission = False   # a valid mission is loaded, kept current by the flight stack
+        self.battery_warning = WARNING_NONE  # the battery's warning, kept current by the flight stack
+        self.geofence_result = frozenset()   # the navigator's breaches ('custom', 'max_dist', 'max_alt'), likewise
+        self.position_valid = True  # the estimator's local and global position, likewise
         self.armed = False
         self.armed_s = None
         self.takeoff_detected = False
@@ -133,8 +168,22 @@ class Commander:
         self.failures = set()
         self.events = []
         self.offboard_s = None
+        self.offboard_needs_position = False  # the last setpoint controls position (OffboardChecks)
         self.user_mode = self.nav_mode = self.fallback_mode = 'AUTO.LOITER'
+        self.mode_change_requested = False
         self.log_start_s, self.log_stop_s = now_s, None  # SDLOG_MODE 1: logging from boot
+        # the data link: no ground station at boot (Commander's constructor), heard through telemetry_status
+        self.gcs_connection_lost = True
+        self.gcs_heartbeat_s = None      # the last GCS HEARTBEAT
+        self.gcs_seen_s = None           # the last telemetry_status that had one
+        self.gcs_checked_s = now_s
+        self.flags = fs.Flags(manual_control_signal_lost=not rc, offboard_control_signal_lost=True,
+                              gcs_connection_lost=True)
+        self.failsafe_state = fs.Failsafe(params)
+        self.failsafe_state.on_notify_user = lambda: self.health.report_if_unreported(self.now_s)
+        self.health = HealthReport()
+        self.health_checked_s = None
+        self.last_battery_warning = WARNING_NONE  # Commander::battery_status_check's _battery_warning
 
     # -- what the link reports ---------------------------------------------------------------
 
@@ -148,7 +197,11 @@ class Commander:
 
     def prearm_ok(self, now_s):
         """The pre-arm checks pass (PX4 runs them armed or not; a disarm leaves them passing)."""
-        return self._prearm_failure(now_s)[0] is None
+        return self._prearm_failure(now_s)[0] is None and self.health.can_arm
+
+    def unhealthy_sensors(self):
+        """SYS_STATUS health bits the reported checks clear (the battery's, with a battery warning)."""
+        return self.health.unhealthy_bits
 
     def logging(self, now_s):
         """The logger runs (SYS_STATUS's LOGGING present and enabled bits)."""
@@ -162,24 +215,48 @@ class Commander:
         self.events.append(ev.StatusText(severity, text, on_link))
 
     def _event(self, severity, text):
-        """What PX4 main says through its events only: in a whole recorded tutorial flight (ready,
-        arming, takeoff, the offboard-loss failsafe, landing, disarm) it sent no STATUSTEXT on the
-        onboard link (reference/px4-sitl-measured.md, "The onboard link"; reference/conversations)."""
+        """What PX4 main says through its events only. Its mavlink_log lines (arming, takeoff, landing,
+        disarm, failsafes) are `_say`'s: STATUSTEXT where a ground station listens, so never to mavros (in a
+        whole recorded tutorial flight no STATUSTEXT reached the onboard link, reference/px4-sitl-measured.md
+        "The onboard link"; a GCS got "Landing detected" and "Disarmed by landing", "Turn 4 recordings")."""
         self._say(severity, text, on_link=False)
 
     # -- mode changes -----------------------------------------------------------------------
 
-    def _enter(self, mode, failsafe=False):
-        self.nav_mode = mode
-        self.failsafe = failsafe
-        if not failsafe:
-            self.user_mode = mode
-            if mode not in TRANSIENT_MODES:
-                self.fallback_mode = mode
-        self.events.append(ev.ModeChanged(mode, failsafe))
+    def _enter(self, mode):
+        """The user's mode becomes `mode` (UserModeIntention::change); the failsafe state decides what flies."""
+        self.user_mode = mode
+        if mode not in TRANSIENT_MODES:
+            self.fallback_mode = mode
+        self.mode_change_requested = True
+        self._update_failsafe(self.now_s)
+
+    def _update_failsafe(self, now_s):
+        """Commander::handleModeIntentionAndFailsafe: the failsafe state's action sets the mode flying."""
+        state = self.failsafe_state
+        user_mode = state.update(now_s, self.armed, self.user_mode, self.mode_change_requested, self.flags)
+        self.mode_change_requested = False
+        if user_mode != self.user_mode:  # a takeover or an action changed the user's mode
+            self.user_mode = user_mode
+            if user_mode not in TRANSIENT_MODES:
+                self.fallback_mode = user_mode
+        for severity, text, on_link in state.notices:
+            self._say(severity, text, on_link)
+        state.notices.clear()
+        action = state.selected
+        if action == fs.Action.DISARM and self.armed:
+            self._disarm('failsafe', now_s)  # Commander::disarm(failsafe, forced)
+            return
+        mode = 'TERMINATION' if action == fs.Action.TERMINATE else fs.mode_from_action(action, self.user_mode)
+        mode = FLOWN_AS.get(mode, mode)
+        self.failsafe = state.in_failsafe()
+        if mode != self.nav_mode:
+            self.nav_mode = mode
+            self.events.append(ev.ModeChanged(mode, self.failsafe))
 
     def request_mode(self, mode, now_s):
         """A user's mode request (SET_MODE, DO_SET_MODE, a command); returns a MAV_RESULT."""
+        self.now_s = now_s
         if mode is None or mode in REFUSED_MODES:
             self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Switching to %s is not supported' % (mode or 'an unknown mode'))
             return TEMPORARILY_REJECTED
@@ -187,16 +264,21 @@ class Commander:
             return TEMPORARILY_REJECTED
         if mode == self.nav_mode and not self.failsafe:
             return ACCEPTED
+        self._update_flags(now_s)  # the checks run for a mode request
         if self.armed:
             reason = None
             if mode == 'OFFBOARD' and not self.offboard_signal(now_s):
                 reason = 'Switching to Offboard is currently not available'
-            elif mode in px4_modes.MANUAL_MODES and not self.rc:
+            elif mode in px4_modes.MANUAL_MODES and not self._rc_signal():
                 reason = 'Switching to %s is currently not available: no manual control' % mode
             elif mode == 'AUTO.MISSION' and not self.has_mission:
                 reason = 'Switching to Mission is currently not available: no valid mission'
+            elif not fs.mode_can_run(self.flags, mode):
+                reason = 'Switching to %s is currently not available' % mode
             if reason:
                 self._say(mavlink.MAV_SEVERITY_CRITICAL, reason)
+                # a refused request is still a request: in a failsafe the pilot may take over with it
+                self.mode_change_requested = True
                 return TEMPORARILY_REJECTED
         self._enter(mode)
         return ACCEPTED
@@ -224,6 +306,7 @@ class Commander:
     # -- arming -----------------------------------------------------------------------------
 
     def request_arming(self, arm, force, now_s):
+        self.now_s = now_s
         if arm:
             if self.armed:
                 return ACCEPTED
@@ -240,13 +323,16 @@ class Commander:
             # PX4's Commander::disarm: TRANSITION_DENIED, which the command answers TEMPORARILY_REJECTED
             self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Disarming denied: not landed')
             return TEMPORARILY_REJECTED
-        self._disarm('commanded', now_s)
+        self._disarm('external command', now_s)
         return ACCEPTED
 
     def _arming_refusal(self, now_s):
         reason, result = self._prearm_failure(now_s)
         if reason:
             return reason, result
+        self._update_flags(now_s)  # Commander::arm runs the checks and takes can_arm as they stand
+        if any(check.blocks_arming for check in self._failing_checks()):
+            return 'Resolve system health failures first', TEMPORARILY_REJECTED
         if self.nav_mode in NOT_ARMABLE:
             return 'mode %s is not armable' % self.nav_mode, TEMPORARILY_REJECTED
         if not self.landed:
@@ -262,10 +348,12 @@ class Commander:
                 TEMPORARILY_REJECTED
         if self.nav_mode == 'OFFBOARD' and not self.offboard_signal(now_s):
             return 'Resolve system health failures first (no offboard signal)', TEMPORARILY_REJECTED
-        if self.nav_mode in px4_modes.MANUAL_MODES and not self.rc:
+        if self.nav_mode in px4_modes.MANUAL_MODES and not self._rc_signal():
             return 'no manual control', TEMPORARILY_REJECTED
         if self.nav_mode == 'AUTO.MISSION' and not self.has_mission:
             return 'no valid mission', TEMPORARILY_REJECTED
+        if not self.position_valid and not fs.mode_can_run(NO_POSITION, self.nav_mode):
+            return 'mode %s needs a position' % self.nav_mode, TEMPORARILY_REJECTED
         return None, ACCEPTED
 
     def _arm(self, now_s):
@@ -275,26 +363,28 @@ class Commander:
         self.log_stop_s = None
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(True, 'commanded'))
-        self._event(mavlink.MAV_SEVERITY_INFO, 'Armed')
+        self._say(mavlink.MAV_SEVERITY_INFO, 'Armed by external command')
+        self._update_failsafe(now_s)
 
     def _disarm(self, why, now_s):
+        """Commander::disarm; `why` as PX4's arm_disarm_reason_str says it."""
         self.armed = False
         logged_s = max(0.0, now_s - self.log_start_s) if self.log_start_s is not None else 0.0
         self.log_stop_s = now_s + log_close_s(logged_s)
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(False, why))
-        self._event(mavlink.MAV_SEVERITY_INFO, 'Disarmed (%s)' % why)
-        if self.failsafe or self.nav_mode in TRANSIENT_MODES:
-            mode = self.fallback_mode
-            self.failsafe = False
-            self._enter(mode)
+        self._say(mavlink.MAV_SEVERITY_INFO, 'Disarmed by %s' % why)
+        if self.user_mode in TRANSIENT_MODES:  # UserModeIntention::onDisarm
+            self.user_mode = self.fallback_mode
+        self._update_failsafe(now_s)
 
     def mission_landed(self, now_s):
         """The mission ended with a landing and the vehicle is down: disarm at once, as PX4 does."""
         if self.armed and self.landed and self.nav_mode == 'AUTO.MISSION':
-            self._disarm('mission landed', now_s)
+            self._disarm('landing', now_s)
 
     def inject_failure(self, name, failed):
+        """A sensor failure (MAV_CMD_INJECT_FAILURE that SimulatorMavlink takes): its checks fail, arming is refused."""
         if failed:
             self.failures.add(name)
         else:
@@ -304,43 +394,109 @@ class Commander:
         """An accepted setpoint refreshes the offboard signal."""
         self.offboard_s = now_s
 
+    def on_gcs_heartbeat(self, now_s):
+        """A ground station's HEARTBEAT (MAV_TYPE_GCS from another system) on any link."""
+        self.gcs_heartbeat_s = now_s
+
+    def on_manual_control(self, now_s):
+        """MANUAL_CONTROL from a ground station (PX4 SITL's COM_RC_IN_MODE 1: MAVLink manual control only)."""
+        self.manual_control_s = now_s
+
+    def _rc_signal(self):
+        """Manual control is there: the simulated RC, or MANUAL_CONTROL younger than COM_RC_LOSS_T
+        (RcAndDataLinkChecks)."""
+        return self.rc or (self.manual_control_s is not None
+                           and self.now_s - self.manual_control_s <= self.params['COM_RC_LOSS_T'])
+
     # -- the periodic checks ------------------------------------------------------------------
 
     def check(self, now_s):
-        """Before the vehicle steps: readiness, and the offboard-loss failsafe."""
+        """Before the vehicle steps, as Commander::run: the data link and the battery, the failsafe state
+        on the conditions of the last checks, then the health and arming checks (10 Hz: a condition
+        reaches the failsafe state up to 0.1 s after it arose, and a failsafe that notifies the pilot
+        finds the check's report waiting)."""
+        self.now_s = now_s
         if not self.ready_announced and self.ready(now_s):
             self.ready_announced = True
             self._event(mavlink.MAV_SEVERITY_INFO, 'Ready for takeoff!')
-        if not (self.armed and self.nav_mode == 'OFFBOARD') or self.offboard_signal(now_s):
-            return
-        action = OBL_ACTIONS.get(self.params['COM_OBL_RC_ACT'], 'AUTO.RTL')
-        if action in RC_MODES and not self.rc:
-            action = RCL_ACTIONS.get(self.params['NAV_RCL_ACT'], 'AUTO.RTL')
-        self._event(mavlink.MAV_SEVERITY_CRITICAL, 'Failsafe: no offboard signal, activating %s' % action)
-        if action in ('disarm', 'terminate'):  # motors off: in the air the vehicle falls
-            self._disarm('offboard signal lost, %s' % action, now_s)
-            return
-        self._enter(action, failsafe=True)
+        self._data_link_check(now_s)
+        self._battery_status_check()
+        self._update_failsafe(now_s)
+        if self.health_checked_s is None or now_s - self.health_checked_s >= HEALTH_CHECK_S - 1e-9:
+            self.health_checked_s = now_s
+            self._update_flags(now_s)
+            for severity, text in self.health.update(now_s, self._failing_checks()):
+                self._say(severity, text)
+
+    def _data_link_check(self, now_s):
+        """Commander::dataLinkCheck: lost when no telemetry_status had a GCS HEARTBEAT for COM_DL_LOSS_T."""
+        if now_s - self.gcs_checked_s >= GCS_HEARTBEAT_CHECK_S:
+            self.gcs_checked_s = now_s
+            if self.gcs_heartbeat_s is not None and now_s - self.gcs_heartbeat_s <= GCS_HEARTBEAT_TIMEOUT_S:
+                if self.gcs_connection_lost:
+                    self.gcs_connection_lost = False
+                    if self.gcs_seen_s is not None:
+                        self._say(mavlink.MAV_SEVERITY_INFO, 'GCS connection regained')
+                self.gcs_seen_s = now_s
+        if (not self.gcs_connection_lost and self.gcs_seen_s is not None
+                and now_s - self.gcs_seen_s > self.params['COM_DL_LOSS_T']):
+            self.gcs_connection_lost = True
+            self._say(mavlink.MAV_SEVERITY_INFO, 'Connection to ground station lost')
+
+    def _battery_status_check(self):
+        """Commander::battery_status_check: an emergency level asks the board to shut down, which PX4 SITL
+        cannot ("System does not support shutdown", recorded)."""
+        warning = self.flags.battery_warning
+        if warning != self.last_battery_warning and warning == WARNING_EMERGENCY:
+            self._say(mavlink.MAV_SEVERITY_CRITICAL, 'System does not support shutdown')
+        self.last_battery_warning = warning
+
+    def _update_flags(self, now_s):
+        """The conditions PX4's checks put in failsafe_flags_s (batteryCheck: armed, the warning only grows)."""
+        f = self.flags
+        invalid = not self.position_valid
+        # OffboardChecks: position setpoints need a valid position to count as an offboard signal
+        f.offboard_control_signal_lost = not self.offboard_signal(now_s) or (self.offboard_needs_position and invalid)
+        f.manual_control_signal_lost = not self._rc_signal()
+        f.gcs_connection_lost = self.gcs_connection_lost
+        f.geofence_breached = bool(self.geofence_result)
+        f.auto_mission_missing = not self.has_mission
+        f.battery_warning = max(f.battery_warning, self.battery_warning) if self.armed else self.battery_warning
+        f.local_position_invalid = f.local_position_invalid_relaxed = f.global_position_invalid = invalid
+
+    def _failing_checks(self):
+        checks = []
+        if self.flags.battery_warning in BATTERY_CHECKS:
+            checks.append(BATTERY_CHECKS[self.flags.battery_warning])
+        if self.gcs_connection_lost and self.params['NAV_DLL_ACT'] > 0:
+            checks.append(NO_GCS_CHECK)
+        if self.params['GF_ACTION'] != 0:
+            for breach, check in (('max_dist', GEOFENCE_DISTANCE_CHECK), ('max_alt', GEOFENCE_ALTITUDE_CHECK),
+                                  ('custom', GEOFENCE_CHECK)):
+                if breach in self.geofence_result:
+                    checks.append(check)
+        return checks
 
     def check_landing(self, now_s):
         """After the vehicle stepped: takeoff and landing detection, the auto-disarm timers."""
+        self.now_s = now_s
         if not self.armed:
             return
         p = self.params
         if not self.landed:
             if not self.takeoff_detected:
                 self.takeoff_detected = True
-                self._event(mavlink.MAV_SEVERITY_INFO, 'Takeoff detected')
+                self._say(mavlink.MAV_SEVERITY_INFO, 'Takeoff detected')
             self.landed_s = None
             return
         if not self.takeoff_detected:
             limit = p['COM_DISARM_PRFLT']
             if limit > 0 and now_s - self.armed_s >= limit:
-                self._disarm('no takeoff within COM_DISARM_PRFLT', now_s)
+                self._disarm('auto preflight disarming', now_s)
             return
         if self.landed_s is None:
             self.landed_s = now_s
-            self._event(mavlink.MAV_SEVERITY_INFO, 'Landing detected')
+            self._say(mavlink.MAV_SEVERITY_INFO, 'Landing detected')
         limit = p['COM_DISARM_LAND']
         if limit >= 0 and now_s - self.landed_s >= limit:
-            self._disarm('landed', now_s)
+            self._disarm('landing', now_s)

@@ -2,6 +2,12 @@
 puts a vehicle resting on the ground after a fresh start, white noise on position and velocity
 (quieter at rest, disarmed), and the slow gust that makes the vehicle wander in hover. Seeded: the
 same seed gives the same flight; an ideal estimator is silent.
+
+And EKF2's word on its horizontal position when the GPS goes (PX4 SITL with Gazebo Classic, whose
+SimulatorMavlink stops the GPS messages on MAV_CMD_INJECT_FAILURE GPS OFF): the position is dead-reckoned,
+then invalid once no aiding came for EKF2_NOAID_TOUT (ekf_helper.cpp updateHorizontalDeadReckoningstatus:
+local_position_is_valid() is !_horizontal_deadreckon_time_exceeded). Back, the GPS must pass EKF2's checks
+for GPS_CHECKS_PASS_S before EKF2 fuses it again. How the estimate drifts meanwhile is not modelled.
 """
 
 import math
@@ -19,6 +25,8 @@ RESTING_NOISE_SCALE = 0.15
 GUST_XY, GUST_Z, GUST_TAU_S = 0.5, 0.25, 4.0   # m/s^2 standard deviation, correlation time
 GUST_SMOOTH_S = 2.0                            # s, a first-order low-pass on it
 NOISE_POSITION_XY, NOISE_POSITION_Z, NOISE_VELOCITY = 0.02, 0.01, 0.03  # m, m, m/s (1 sigma)
+# EKF2's GPS quality checks must pass this long before it fuses a GPS (EKF2 _min_gps_health_time_us, 10 s)
+GPS_CHECKS_PASS_S = 10.0
 
 
 def ground_start(seed):
@@ -41,6 +49,26 @@ class Estimator:
         self.rng = random.Random(seed)
         self._raw_gust = [0.0, 0.0, 0.0]
         self.gust = [0.0, 0.0, 0.0]
+        self.gps_off_s = None   # when the GPS messages stopped
+        self.gps_on_s = None    # when they came back, after a loss
+
+    def gps_off(self, now_s):
+        if self.gps_off_s is None:
+            self.gps_off_s, self.gps_on_s = now_s, None
+
+    def gps_on(self, now_s):
+        if self.gps_off_s is not None and self.gps_on_s is None:
+            self.gps_on_s = now_s
+
+    def position_valid(self, now_s, no_aid_timeout_s):
+        """EKF2's horizontal position (local and global) is valid: no GPS loss, or one shorter than
+        EKF2_NOAID_TOUT, or a GPS back and fused again."""
+        if self.gps_off_s is None:
+            return True
+        if self.gps_on_s is not None and now_s - self.gps_on_s >= GPS_CHECKS_PASS_S:
+            self.gps_off_s = self.gps_on_s = None
+            return True
+        return now_s - self.gps_off_s <= no_aid_timeout_s
 
     def step_gust(self, dt):
         if self.ideal:

@@ -18,7 +18,10 @@ from typing import NamedTuple
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
+from offboard_py.sim import failures
+from offboard_py.sim.battery_simulator import BatterySimulator
 from offboard_py.sim.commander import Commander
+from offboard_py.sim.geofence import Geofence
 from offboard_py.sim.navigator import Navigator
 from offboard_py.sim.estimator import Estimator
 from offboard_py.sim.vehicle import VehicleModel
@@ -26,30 +29,6 @@ from offboard_py.sim.vehicle import VehicleModel
 NAN3 = (float('nan'),) * 3
 HOVER_THRUST = 0.5  # normalised thrust that holds the vehicle (PX4's MPC_THR_HOVER default)
 HOME_SET_S = 2.4    # boot s when PX4 SITL first sets home (2.45 and 2.33 s recorded), unless ready sooner
-
-
-class BatterySimulator:
-    """PX4 SITL's battery simulator (src/modules/simulation/battery_simulator) as this model keeps it: a 4S LiPo
-    that is full at boot (16.2 V: 4.05 V a cell, PX4's BAT1_V_CHARGED) and drains linearly while armed, to empty after `endurance_s` of armed time; disarmed it holds its charge."""
-    CELLS = 4
-    CELL_FULL_V, CELL_EMPTY_V = 4.05, 3.5  # PX4's BAT1_V_CHARGED, BAT1_V_EMPTY
-
-    def __init__(self, endurance_s=1200.0):
-        self.endurance_s = endurance_s
-        self.armed_time_s = 0.0
-
-    def step(self, dt, armed):
-        if armed:
-            self.armed_time_s += dt
-
-    @property
-    def remaining(self):
-        """Charge left, 0..1."""
-        return max(0.0, 1.0 - self.armed_time_s / self.endurance_s)
-
-    @property
-    def voltage_v(self):
-        return self.CELLS * (self.CELL_EMPTY_V + (self.CELL_FULL_V - self.CELL_EMPTY_V) * self.remaining)
 
 
 class Status(NamedTuple):
@@ -85,6 +64,8 @@ class Status(NamedTuple):
     logging: bool = True           # the logger runs (SYS_STATUS's LOGGING present/enabled bits)
     gyro: tuple = (0.0, 0.0, 0.0)        # FRD, rad/s: the gyro (HIGHRES_IMU)
     home_set_s: float = None       # boot s when home was last set (HOME_POSITION.time_usec); None: not yet
+    battery_warning: int = 0       # battery_status_s::WARNING_* (BATTERY_STATUS.charge_state)
+    unhealthy_sensors: int = 0     # SYS_STATUS health bits the reported checks clear
 
     @property
     def custom_mode(self):
@@ -107,12 +88,14 @@ class Status(NamedTuple):
 class Flight:
     def __init__(self, params, frame, now_s, ready_delay_s=5.0, rc=False, ideal=False, seed=None):
         self.params = params
+        self.frame = frame
         seed = params['MAV_SYS_ID'] if seed is None else seed
         self.vehicle = VehicleModel(params, estimator=Estimator(seed, ideal=ideal))
         self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
         self.navigator = Navigator(params, frame, self.vehicle)
         self.offboard_sp = None
-        self.battery = BatterySimulator()
+        self.battery = BatterySimulator(params, now_s)
+        self.geofence = Geofence(params)
         self.events = []
         # PX4 sets home as its estimator gets a position, before it is ready: 2.45 and 2.33 s after boot
         # in the two real-PX4 recordings (HOME_POSITION.time_usec, reference/conversations/takeoff-*-px4)
@@ -192,17 +175,31 @@ class Flight:
         self.commander.has_mission = bool(items)
         self._route(None)
 
-    def inject_failure(self, name, failed):
-        self.commander.inject_failure(name, failed)
+    def load_fence(self, items):
+        """The FENCE list a ground station uploaded (sim.geofence)."""
+        self.geofence.load(items)
+
+    def inject_failure(self, unit, failure_type, instance, now_s):
+        """MAV_CMD_INJECT_FAILURE as the modules of PX4 SITL with Gazebo Classic take it (sim.failures):
+        True ACCEPTED, False UNSUPPORTED, None when no module takes it (PX4 then sends no COMMAND_ACK)."""
+        return failures.inject(self, unit, failure_type, instance, now_s)
 
     def on_offboard_setpoint(self, sp, now_s):
         self.offboard_sp = sp
         self.commander.on_offboard_setpoint(now_s)
+        self.commander.offboard_needs_position = any(value == value for value in sp.position)
+
+    def on_gcs_heartbeat(self, now_s):
+        self.commander.on_gcs_heartbeat(now_s)
+
+    def on_manual_control(self, now_s):
+        self.commander.on_manual_control(now_s)
 
     # -- the cycle -----------------------------------------------------------------------------
 
     def step(self, now_s, dt):
         c, v = self.commander, self.vehicle
+        c.position_valid = v.estimator.position_valid(now_s, self.params['EKF2_NOAID_TOUT'] / 1e6)
         c.check(now_s)
         self._route(now_s)
         if c.nav_mode == 'OFFBOARD' and self.offboard_sp is not None:
@@ -211,7 +208,14 @@ class Flight:
             sp = self.navigator.setpoint(c.nav_mode, c.armed, now_s)
             self._route(now_s)
         v.step(dt, sp, now_s)
-        self.battery.step(dt, c.armed)
+        self.battery.step(now_s, c.armed)
+        c.battery_warning = self.battery.warning
+        if self.geofence.due(now_s):
+            c.geofence_result = self.geofence.check(now_s, self.frame.to_global(*v.estimate[0]),
+                                                    self.frame.to_global(*self.home), c.armed,
+                                                    c.nav_mode == 'AUTO.LOITER')
+            if self.geofence.holding_since_s == now_s:  # navigator_main.cpp: hold where the breach was seen
+                self.navigator.set_reposition(tuple(v.estimate[0]), None, float('nan'), c.armed)
         c.landed, c.maybe_landed = v.landed, v.maybe_landed
         if self.navigator.mission.landed_at_end and c.nav_mode == 'AUTO.MISSION':
             c.mission_landed(now_s)
@@ -279,7 +283,8 @@ class Flight:
                       c.prearm_ok(now_s), self.landed_state(), position, velocity, v.yaw,
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
-                      self.home, c.rc, rtl, v.body_rates, c.logging(now_s), v.gyro, self.home_set(now_s))
+                      self.home, c.rc, rtl, v.body_rates, c.logging(now_s), v.gyro, self.home_set(now_s),
+                      b.warning, c.unhealthy_sensors())
 
     def home_set(self, now_s):
         """Boot s when home was last set, or None before PX4 would have set it (home_first_s)."""

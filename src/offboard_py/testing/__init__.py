@@ -15,6 +15,13 @@ rostest (a test node of yours beside the vehicle of sim_vehicle.launch; imports 
   RosoutRecorder    what one node logged, from /rosout
   now               ROS time in seconds (simulated seconds in simulated time)
 
+failsafes (plain pymavlink, no ROS; in a rostest or a pytest alike):
+  Failures          a ground station on the vehicle's GCS link that causes PX4's failsafes through
+                    MAVLink only, so the same test drives real PX4 SITL: gps_off, battery_off,
+                    set_battery(percent), cut_data_link, lose_rc (after start_joystick),
+                    upload_fence / fence_circle, set_param, inject; and what PX4 said (texts,
+                    modes, latest). docs/failsafes.md
+
 pytest with plain pymavlink (no ROS):
   offboard_py.testing.pytest_plugin   fixtures sim_px4 and start_sim:
                                       pytest_plugins = ['offboard_py.testing.pytest_plugin']
@@ -39,6 +46,7 @@ _LAZY = {
     'Vehicle': 'rostest_common',
     'RosoutRecorder': 'rostest_common',
     'now': 'rostest_common',
+    'Failures': 'failures',
     'SimProcess': 'sim_client',
     'Client': 'sim_client',
     'start_simulated_px4': 'sim_client',

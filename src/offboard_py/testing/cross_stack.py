@@ -34,6 +34,9 @@ COLUMNS = (Column('bridge+px4', 'px4_sih', 'ours'),
 # scenario -> (its .test file, the SITL instance it flies as, {column name: why it is skipped there}
 # or a reason it is skipped on every column)
 ALL = object()
+SIH_NO_GPS_FAILURE = ('PX4 SITL SIH has no SimulatorMavlink, the module that takes MAV_CMD_INJECT_FAILURE for GPS: '
+                      'recorded, no COMMAND_ACK and no reaction in 60 s, where the simulated PX4 stands for PX4 SITL '
+                      'with Gazebo Classic (the GPS stops, EKF2 gives the position up)')
 SCENARIOS = collections.OrderedDict([
     ('takeoff', ('takeoff.test', 4, {})),
     ('offboard_loss', ('offboard_loss.test', 7, {})),
@@ -46,6 +49,16 @@ SCENARIOS = collections.OrderedDict([
                                              'its own config) are not yet written for'})),
     ('mission', ('mission.test', 17, {})),
     ('position_square', ('position_square.test', 18, {})),
+    # the failsafes: PX4 SITL SIH has battery_simulator, the data link, the geofence and MAVLink manual control
+    # as the simulated PX4 (which stands for PX4 SITL with Gazebo Classic); it has no SimulatorMavlink, which
+    # takes the sensor failures (reference/px4-sitl-measured.md, "Turn 4 recordings", item 6)
+    ('failsafe_battery', ('failsafe_battery.test', 16, {})),
+    ('failsafe_data_link', ('failsafe_data_link.test', 22, {})),
+    ('failsafe_geofence', ('failsafe_geofence.test', 23, {})),
+    ('failsafe_gps', ('failsafe_gps.test', 24, {
+        'bridge+px4': SIH_NO_GPS_FAILURE, 'mavros+px4': SIH_NO_GPS_FAILURE})),
+    ('failsafe_rc', ('failsafe_rc.test', 25, {})),
+    ('failsafe_offboard', ('failsafe_offboard.test', 26, {})),
 ])
 TIME_LIMIT_S = 600.0  # one rostest run, real time, real PX4 starting included
 

@@ -14,7 +14,9 @@ Who uses which N:
           fleet_shared_sims.test 19, 20 and 21 (20 and 21 also the pytest tiers': under ./run test
           those run beside the rostests in network namespaces of their own; without one, catkin runs
           them one after another)
-  20..37  the pytest tiers (test/sim, test/meta): free_instances() per test
+  20..37  the pytest tiers (test/sim, test/meta): free_instances() per test; the failsafe scenarios
+          (failsafe_*.test) take 16 and 22..27, which the pytest tiers may also take only because
+          ./run test runs those in network namespaces of their own (catkin alone runs them one after another)
   38, 39  a .test file run by hand without `instance:=N` (its default)
 """
 

@@ -77,20 +77,18 @@ def position_target_type_mask(position, velocity, acceleration, yaw, yaw_rate):
     return mask
 
 
-def sensors_health(prearm_ok):
-    """SYS_STATUS onboard_control_sensors_health: PREARM_CHECK only while the arming checks pass."""
-    return SENSORS_HEALTHY | (mavlink.MAV_SYS_STATUS_PREARM_CHECK if prearm_ok else 0)
+def sensors_health(prearm_ok, unhealthy=0):
+    """SYS_STATUS onboard_control_sensors_health: PREARM_CHECK only while the arming checks pass; the
+    sensors a reported check marks unhealthy cleared (SYS_STATUS.hpp fillOutComponent)."""
+    return (SENSORS_HEALTHY & ~unhealthy) | (mavlink.MAV_SYS_STATUS_PREARM_CHECK if prearm_ok else 0)
 
 
-def battery_charge_state(remaining):
-    """MAV_BATTERY_CHARGE_STATE for a charge 0..1 (PX4's BAT_LOW_THR 0.15, BAT_CRIT_THR 0.07, BAT_EMERGEN_THR 0.05)."""
-    if remaining < 0.05:
-        return mavlink.MAV_BATTERY_CHARGE_STATE_EMERGENCY
-    if remaining < 0.07:
-        return mavlink.MAV_BATTERY_CHARGE_STATE_CRITICAL
-    if remaining < 0.15:
-        return mavlink.MAV_BATTERY_CHARGE_STATE_LOW
-    return mavlink.MAV_BATTERY_CHARGE_STATE_OK
+def battery_charge_state(warning):
+    """MAV_BATTERY_CHARGE_STATE for battery_status_s::WARNING_* 0-4 (NONE, LOW, CRITICAL, EMERGENCY, FAILED),
+    as BATTERY_STATUS.hpp maps the battery's warning."""
+    return (mavlink.MAV_BATTERY_CHARGE_STATE_OK, mavlink.MAV_BATTERY_CHARGE_STATE_LOW,
+            mavlink.MAV_BATTERY_CHARGE_STATE_CRITICAL, mavlink.MAV_BATTERY_CHARGE_STATE_EMERGENCY,
+            mavlink.MAV_BATTERY_CHARGE_STATE_FAILED)[warning]
 
 
 def servo_pwm(armed, thrust):
@@ -175,16 +173,17 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
         # the logger's bit leaves present and enabled while it is stopped; health keeps it (as PX4 SITL)
         logging = LOGGING_BITS if st.logging else 0
         return self.mav.sys_status_encode((SENSORS_PRESENT & ~LOGGING_BITS) | logging,
-                                          (SENSORS_ENABLED & ~LOGGING_BITS) | logging, sensors_health(st.prearm_ok),
+                                          (SENSORS_ENABLED & ~LOGGING_BITS) | logging,
+                                          sensors_health(st.prearm_ok, st.unhealthy_sensors),
                                           LOAD_PERMILLE, int(round(st.battery_voltage * 1000)), BATTERY_CURRENT_CA,
-                                          int(round(st.battery_remaining * 100)), 0, 0, 0, 0, 0, 0)
+                                          int(math.ceil(st.battery_remaining * 100)), 0, 0, 0, 0, 0, 0)
 
     def _battery_status(self, st, now_s):
         cell_mv = int(round(st.battery_voltage * 1000 / MOTORS))  # a 4S pack: one cell per motor arm
         return self.mav.battery_status_encode(
             0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, INT16_UNKNOWN,
             [cell_mv] * 4 + [UINT16_UNKNOWN] * 6, BATTERY_CURRENT_CA, -1, -1, int(round(st.battery_remaining * 100)),
-            0, battery_charge_state(st.battery_remaining))
+            0, battery_charge_state(st.battery_warning))
 
     def _attitude(self, st, now_s):
         roll, pitch, yaw = self._euler(st)

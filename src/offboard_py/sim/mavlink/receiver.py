@@ -84,6 +84,7 @@ class Receiver:
         control('SET_ATTITUDE_TARGET', self._on_setpoint)
         control('PARAM_SET', self.parameters.on_set)
         control('SETUP_SIGNING', self._on_setup_signing)
+        control('MANUAL_CONTROL', self._on_manual_control)
         control('MISSION_COUNT', self._mission(lambda m, t: self.mission_manager.on_count(m, t)))
         control('MISSION_ITEM_INT', self._mission(lambda m, t: self.mission_manager.on_item(m, t)))
         control('MISSION_ITEM', self._mission(lambda m, t: self.mission_manager.on_item(m, t)))
@@ -128,6 +129,13 @@ class Receiver:
 
     def _on_heartbeat(self, msg):
         self.px4.texts.on_heartbeat(self.px4.reply_link, msg, self.px4.t())
+        if msg.type == mavlink.MAV_TYPE_GCS and msg.get_srcSystem() != self.system_id:
+            self.flight.on_gcs_heartbeat(self.px4.t())  # handle_message_heartbeat: telemetry_status's GCS
+
+    def _on_manual_control(self, msg):
+        """A ground station's joystick (handle_message_manual_control: for this system only)."""
+        if msg.target == self.system_id:
+            self.flight.on_manual_control(self.px4.t())
 
     def _on_set_mode(self, msg):
         """PX4's receiver turns SET_MODE into a DO_SET_MODE vehicle command for target_system, and the
@@ -176,7 +184,8 @@ class Receiver:
             self._ack(msg, msg.command, ACCEPTED, delay_s=0.0)
         handler = self.commands.get(msg.command)
         result = handler(msg, self.px4.t()) if handler else UNSUPPORTED
-        self._ack(msg, msg.command, result)
+        if result is not None:
+            self._ack(msg, msg.command, result)
         self.px4.say_events()
 
     def _cmd_set_message_interval(self, msg, now):

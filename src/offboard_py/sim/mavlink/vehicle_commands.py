@@ -3,13 +3,12 @@ PX4's commander and navigator read a vehicle_command (Commander::handle_command,
 answered with the flight stack's MAV_RESULT. What the receiver answers itself (message intervals and
 requests) is sim.mavlink.receiver's; the checks before a command gets here too.
 
-A handler is handler(msg, now_s) -> MAV_RESULT."""
+A handler is handler(msg, now_s) -> MAV_RESULT, or None when PX4 sends no answer."""
 
 import math
 
 from offboard_py import px4_modes
-from offboard_py.dialect import (ARM_DISARM_FORCE_MAGIC, FAILURE_TYPE_OK, MAV_CMD_DO_ORBIT, MAV_CMD_INJECT_FAILURE,
-                                 mavlink)
+from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, MAV_CMD_DO_ORBIT, MAV_CMD_INJECT_FAILURE, mavlink
 
 ACCEPTED, DENIED, FAILED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_FAILED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
@@ -140,7 +139,11 @@ class VehicleCommands:
         return self.flight.start_mission(first, now)
 
     def _inject_failure(self, msg, now):
+        """PX4's receiver: DENIED unless SYS_FAILURE_EN=1; then the module that takes the unit answers
+        (sim.failures), and None (no COMMAND_ACK) when none does, as PX4 SITL."""
         if not self.params['SYS_FAILURE_EN']:
-            return DENIED  # PX4: failure injection is off unless SYS_FAILURE_EN=1
-        self.flight.inject_failure('unit %d' % int(msg.param1), int(msg.param2) != FAILURE_TYPE_OK)
-        return ACCEPTED
+            return DENIED
+        if not all(map(math.isfinite, (msg.param1, msg.param2, msg.param3))):
+            return None
+        taken = self.flight.inject_failure(*(int(round(p)) for p in (msg.param1, msg.param2, msg.param3)), now)
+        return None if taken is None else (ACCEPTED if taken else UNSUPPORTED)

@@ -1,0 +1,183 @@
+#!/usr/bin/env python3
+"""PX4's failsafes under the tutorial's node (offb_node.py with respect_pilot:=true, flying OFFBOARD at 2 m), each
+caused through MAVLink by the test kit's ground station (offboard_py.testing.Failures), so that the same
+scenario means the same on real PX4 SITL (the cross-stack tier, offboard_py.testing.cross_stack). Each asserts
+PX4's reaction (src/modules/commander/failsafe/failsafe.cpp and framework.cpp: the action, its Hold of
+COM_FAIL_ACT_T first where the action allows the pilot to take over) and that the node survives it: still
+running, it logged the takeover and asked for OFFBOARD no more. The case is the test's ~case parameter
+(failsafe_<case>.test)."""
+
+import rosnode
+import rospy
+import rostest
+from mavros_msgs.msg import ExtendedState
+
+from offboard_py.testing import Failures, OffboardTestCase, RosoutRecorder, Vehicle, now
+
+PKG = 'offboard_py'
+NODE = '/offb_node_py'
+FAIL_ACT_S = 5.0          # COM_FAIL_ACT_T: the Hold before a delayed action
+STATE_PERIOD_S = 1.0      # mavros/state follows PX4's 1 Hz HEARTBEAT
+DL_LOSS_S = 10.0          # COM_DL_LOSS_T
+GCS_TIMEOUT_S = 2.5       # telemetry_status keeps a GCS HEARTBEAT this long (HEARTBEAT_TIMEOUT_US)
+NOAID_TIMEOUT_S = 5.0     # EKF2_NOAID_TOUT: EKF2 keeps a position this long without GPS
+FENCE_RADIUS_M = 5.0
+
+
+class FailsafeCase(OffboardTestCase):
+    """The node flying OFFBOARD at 2 m with the ground station on, then one failure."""
+
+    def setUp(self):
+        self.vehicle = Vehicle('mavros')
+        self.log = RosoutRecorder(NODE)
+        self.failures = Failures(rospy.get_param('~instance'))
+        self.failures.connected(30.0)
+
+    def tearDown(self):
+        self.failures.close()
+
+    def fly(self, z_m=2.0):
+        self.wait_for_offboard_and_armed(self.vehicle, 90.0)
+        self.wait_for_altitude(self.vehicle, z_m, 0.2, 30.0)
+
+    def assert_node_respected_the_failsafe(self, start):
+        """Running, it saw the pilot (the failsafe) take over, and the vehicle, armed, never went back to
+        OFFBOARD (disarmed, PX4 shows the user's mode again: OFFBOARD, the node's last choice)."""
+        self.assertIn(NODE, rosnode.get_node_names(), 'the node is gone')
+        self.assertTrue(any(line.startswith('Pilot took over') for line in self.log.lines),
+                        'the node never logged the takeover: %s' % self.log.lines)
+        armed = [s.mode for _, s in self.vehicle.states_since(start) if s.armed]
+        first_out = next(i for i, mode in enumerate(armed) if mode != 'OFFBOARD')
+        self.assertNotIn('OFFBOARD', armed[first_out:], 'back in OFFBOARD after the failsafe: %s' % armed)
+
+    def wait_landed_and_disarmed(self, timeout_s=60.0):
+        self.wait_for_armed(self.vehicle, False, timeout_s)
+        self.assertEqual(self.vehicle.extended_state.landed_state, ExtendedState.LANDED_STATE_ON_GROUND)
+
+    def seconds_to(self, mode, start, timeout_s):
+        self.wait_for_mode(self.vehicle, mode, timeout_s)
+        return next(t for t, s in self.vehicle.states_since(start) if s.mode == mode) - start
+
+
+class Battery(FailsafeCase):
+
+    def test_battery_off_holds_then_lands(self):
+        """BatterySimulator's OFF (empty cells): CRITICAL 2.6 s later: Hold for COM_FAIL_ACT_T (COM_LOW_BAT_ACT 3
+        returns at critical), EMERGENCY meanwhile: Land when the Hold ends (PX4 SITL, reference/
+        px4-sitl-battery-off.json: Hold at 2.58 s, AUTO.LAND at 8.11 s in HEARTBEAT)."""
+        self.fly()
+        start = now()
+        self.assertEqual(self.failures.battery_off(), 0)
+        held = self.seconds_to('AUTO.LOITER', start, 10.0)
+        landing = self.seconds_to('AUTO.LAND', start, 15.0)
+        self.assertLessEqual(abs(held - 2.58), 0.25 * 2.58 + STATE_PERIOD_S, 'Hold %.2f s after, PX4 2.58 s' % held)
+        self.assertLessEqual(abs(landing - 8.11), 0.25 * 8.11, 'AUTO.LAND %.2f s after, PX4 8.11 s' % landing)
+        self.wait_landed_and_disarmed()
+        self.assert_node_respected_the_failsafe(start)
+        said = [text for _, _, text in self.failures.texts(start)]
+        for text in ('Low battery', 'Failsafe activated: entering Hold for 5 seconds', 'Emergency battery level',
+                     'Failsafe activated'):
+            self.assertIn(text, said)
+
+
+class DataLink(FailsafeCase):
+
+    def test_ground_station_lost_holds_then_returns(self):
+        """NAV_DLL_ACT 2 (Return; PX4 SITL has 0, nothing): no GCS HEARTBEAT for COM_DL_LOSS_T (counted from
+        telemetry_status, which keeps one 2.5 s), Hold for COM_FAIL_ACT_T, then Return and land."""
+        self.pause(GCS_TIMEOUT_S)  # PX4 counts the ground station at its next telemetry_status check
+        self.assertEqual(self.failures.set_param('NAV_DLL_ACT', 2), 2)
+        self.fly()
+        self.failures.cut_data_link()
+        start = now()
+        held = self.seconds_to('AUTO.LOITER', start, DL_LOSS_S + GCS_TIMEOUT_S + 5.0)
+        returning = self.seconds_to('AUTO.RTL', start, FAIL_ACT_S + 5.0)
+        self.assertGreaterEqual(held, DL_LOSS_S, 'held %.2f s after the last HEARTBEAT' % held)
+        self.assertLessEqual(held, DL_LOSS_S + GCS_TIMEOUT_S + STATE_PERIOD_S + 0.5)
+        self.assertAlmostEqual(returning - held, FAIL_ACT_S, delta=STATE_PERIOD_S + 0.3)
+        self.wait_landed_and_disarmed()
+        self.assert_node_respected_the_failsafe(start)
+
+
+class Geofence(FailsafeCase):
+
+    def test_leaving_the_fence_holds_inside_reach(self):
+        """A 5 m circle around home uploaded by the mission protocol (mission_type FENCE); the node flies to 10 m
+        north: GF_ACTION 2 (Hold), where the breach was seen; the node leaves it there."""
+        home = self.failures.home()
+        self.assertEqual(self.failures.upload_fence(self.failures.fence_circle(FENCE_RADIUS_M, home[:2])), 0)
+        start = now()
+        self.wait_for_offboard_and_armed(self.vehicle, 90.0)
+        self.wait_for_mode(self.vehicle, 'AUTO.LOITER', 30.0)
+        self.failures.wait_text('Geofence: approaching or outside geofence', 5.0)
+        self.pause(12.0)  # braking from cruise overshoots; the Hold flies back to the breach point
+        north = self.vehicle.pose.pose.position.y
+        self.assertLess(abs(north - FENCE_RADIUS_M), 2.5, 'holds %.1f m north, the fence at %.0f m' % (
+            north, FENCE_RADIUS_M))
+        self.assertEqual(self.vehicle.state.mode, 'AUTO.LOITER')
+        self.assert_node_respected_the_failsafe(start)
+
+
+class Gps(FailsafeCase):
+
+    def test_gps_off_falls_back_to_altitude(self):
+        """GPS off (SimulatorMavlink stops it): after EKF2_NOAID_TOUT the position is invalid, the node's position
+        setpoints no offboard signal; COM_OBL_RC_ACT 0 means Position, which cannot run: Altitude."""
+        self.fly()
+        start = now()
+        self.assertEqual(self.failures.gps_off(), 0)
+        took = self.seconds_to('ALTCTL', start, NOAID_TIMEOUT_S + 5.0)
+        self.assertGreaterEqual(took, NOAID_TIMEOUT_S)
+        self.assertLessEqual(took, NOAID_TIMEOUT_S + STATE_PERIOD_S + 0.5)
+        self.assert_holds(self.vehicle, 2.0, 0.3, 3.0)
+        self.assert_node_respected_the_failsafe(start)
+
+
+class ManualControl(FailsafeCase):
+
+    def test_joystick_lost_holds_then_returns(self):
+        """A ground station's joystick (MANUAL_CONTROL; PX4 SITL's COM_RC_IN_MODE 1) there at arming and then
+        lost: after COM_RC_LOSS_T, NAV_RCL_ACT 2: Hold for COM_FAIL_ACT_T, then Return and land."""
+        self.failures.start_joystick()
+        self.fly()
+        self.failures.lose_rc()
+        start = now()
+        held = self.seconds_to('AUTO.LOITER', start, 5.0)
+        returning = self.seconds_to('AUTO.RTL', start, FAIL_ACT_S + 5.0)
+        self.assertLessEqual(held, 0.5 + STATE_PERIOD_S + 0.3, 'COM_RC_LOSS_T 0.5 s: held after %.2f s' % held)
+        self.assertAlmostEqual(returning - held, FAIL_ACT_S, delta=STATE_PERIOD_S + 0.3)
+        self.wait_landed_and_disarmed()
+        self.assert_node_respected_the_failsafe(start)
+
+
+class OffboardLoss(FailsafeCase):
+    """The node killed: COM_OBL_RC_ACT (~obl_act) decides, with the ground station's joystick there (~joystick);
+    without it, its manual choices (Position, Altitude, Stabilized) fall to NAV_RCL_ACT (2: Return). A mode
+    fallback is not delayed (Failsafe::checkModeFallback: takeover Always)."""
+
+    WITH_MANUAL_CONTROL = {0: 'POSCTL', 1: 'ALTCTL', 2: 'STABILIZED', 3: 'AUTO.RTL', 4: 'AUTO.LAND', 5: 'AUTO.LOITER'}
+
+    def test_offboard_loss_takes_com_obl_rc_act(self):
+        obl_act, joystick = rospy.get_param('~obl_act'), rospy.get_param('~joystick')
+        expected = self.WITH_MANUAL_CONTROL[obl_act] if joystick or obl_act > 2 else 'AUTO.RTL'
+        self.assertEqual(self.failures.set_param('COM_OBL_RC_ACT', obl_act), obl_act)
+        if joystick:
+            self.failures.start_joystick()
+        self.fly()
+        rosnode.kill_nodes([NODE])
+        self.wait_until(lambda: self.vehicle.state.mode != 'OFFBOARD', 5.0, 'the offboard-loss failsafe',
+                        [self.vehicle])
+        last = self.vehicle.setpoints[-1]
+        left = next(t for t, s in self.vehicle.states_since(last) if s.mode != 'OFFBOARD')
+        self.assertEqual(self.vehicle.state.mode, expected)
+        self.assertLessEqual(left - last, 1.0 + 0.1 + STATE_PERIOD_S + 0.3,
+                             'COM_OF_LOSS_T 1 s: left OFFBOARD %.2f s after the last setpoint' % (left - last))
+
+
+CASES = {'battery': Battery, 'data_link': DataLink, 'geofence': Geofence, 'gps': Gps, 'rc': ManualControl,
+         'offboard': OffboardLoss}
+
+if __name__ == '__main__':
+    rospy.init_node('test_failsafes')
+    case = rospy.get_param('~case')
+    rostest.rosrun(PKG, 'failsafe_' + case, CASES[case])
