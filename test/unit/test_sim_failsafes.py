@@ -12,6 +12,7 @@ import pytest
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import failsafe as fs
+from offboard_py.sim import failsafe_framework as ff
 from offboard_py.sim import offboard_input
 from offboard_py.sim.battery_simulator import WARNING_CRITICAL, WARNING_EMERGENCY, WARNING_LOW
 from offboard_py.sim.geo import LocalFrame
@@ -369,20 +370,20 @@ def test_gps_off_with_rc_in_position_mode_falls_back_to_altitude():
 def test_framework_delays_auto_actions_and_not_fallbacks():
     params = ParamStore({'NAV_DLL_ACT': 3})
     state = fs.Failsafe(params)
-    flags = fs.Flags()
+    flags = ff.Flags()
     state.update(0.0, True, 'OFFBOARD', False, flags)
     flags.gcs_connection_lost = True
     state.update(0.1, True, 'OFFBOARD', False, flags)
-    assert state.selected == fs.Action.HOLD
+    assert state.selected == ff.Action.HOLD
     state.update(5.2, True, 'OFFBOARD', False, flags)
-    assert state.selected == fs.Action.LAND
+    assert state.selected == ff.Action.LAND
     assert [text for _, text, on_link in state.notices if on_link] == [
         'Failsafe activated: entering Hold for 5 seconds', 'Failsafe activated']
     other = fs.Failsafe(params)
-    flags = fs.Flags(manual_control_signal_lost=True)  # no RC at arming: no RC failsafe
+    flags = ff.Flags(manual_control_signal_lost=True)  # no RC at arming: no RC failsafe
     other.update(0.0, True, 'OFFBOARD', False, flags)
     flags.offboard_control_signal_lost = True
     other.update(0.1, True, 'OFFBOARD', False, flags)
-    assert other.selected == fs.Action.RTL, 'a mode fallback is not delayed'
-    assert fs.mode_from_action(fs.Action.HOLD, 'OFFBOARD') == 'AUTO.LOITER'
+    assert other.selected == ff.Action.RTL, 'a mode fallback is not delayed'
+    assert ff.mode_from_action(ff.Action.HOLD, 'OFFBOARD') == 'AUTO.LOITER'
     assert math.isclose(params['COM_FAIL_ACT_T'], 5.0)

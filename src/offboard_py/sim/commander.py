@@ -10,7 +10,7 @@ Rules, as current PX4 applies them (reference/px4-behaviour.md):
   CRITICAL in a failsafe. `prearm_ok()` is the same verdict, for SYS_STATUS's PREARM_CHECK health bit.
 - The logger (SDLOG_MODE 1: from boot until the first disarm, then from each arming to its
   disarm): `logging()` says whether it runs, for SYS_STATUS's MAV_SYS_STATUS_LOGGING present and
-  enabled bits; it starts LOG_START_S after an arming and stops log_close_s() after a disarm.
+  enabled bits; sim.logger_status says when it starts and stops.
 - Two modes are tracked, as PX4 does: the mode the user chose (`user_mode`, shown as
   CURRENT_MODE.intended_custom_mode) and the mode flying now (`nav_mode`), which differs
   during a failsafe. After a disarm the vehicle returns to the last mode the user chose
@@ -50,101 +50,18 @@ from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import failsafe as fs
-from offboard_py.sim.battery_simulator import (WARNING_CRITICAL, WARNING_EMERGENCY, WARNING_LOW, WARNING_NONE)
-from offboard_py.sim.health_checks import Check, HealthReport
+from offboard_py.sim import failsafe_framework as ff
+from offboard_py.sim.battery_simulator import WARNING_EMERGENCY, WARNING_NONE
+from offboard_py.sim.data_link import DataLink
+from offboard_py.sim.health_checks import HealthReport, failing_checks
+from offboard_py.sim.logger_status import LoggerStatus
+from offboard_py.sim.mode_util import FLOWN_AS, NOT_ARMABLE, REFUSED_MODES, TRANSIENT_MODES, set_mode_target
 
-# names mavros knows (px4_modes.MODES) for which PX4 main has no navigation state
-REFUSED_MODES = frozenset(('AUTO.READY', 'AUTO.RTGS', 'RATTITUDE'))
-# modes that prevent arming (ModeUtil/mode_requirements.cpp: mode_req_prevent_arming)
-NOT_ARMABLE = frozenset(('AUTO.LAND', 'AUTO.RTL', 'AUTO.FOLLOW_TARGET', 'AUTO.PRECLAND', 'TERMINATION'))
-# modes the vehicle leaves for the user's previous choice once it is disarmed: those that prevent
-# arming and the takeoff, TERMINATION excepted (UserModeIntention::change, _nav_state_after_disarming)
-TRANSIENT_MODES = (NOT_ARMABLE | {'AUTO.TAKEOFF'}) - {'TERMINATION'}
-# DO_SET_MODE's custom main modes (px4_custom_mode.h) as Commander::handle_command takes them; POSCTL
-# and AUTO have their own rules in set_mode_target
-_MAIN_MODES = {px4_modes.MAIN_MANUAL: 'MANUAL', px4_modes.MAIN_ALTCTL: 'ALTCTL',
-               px4_modes.MAIN_ALTITUDE_CRUISE: 'ALTITUDE_CRUISE', px4_modes.MAIN_ACRO: 'ACRO',
-               px4_modes.MAIN_STABILIZED: 'STABILIZED', px4_modes.MAIN_OFFBOARD: 'OFFBOARD'}
-_AUTO_SUB_MODES = {px4_modes.SUB_LOITER: 'AUTO.LOITER', px4_modes.SUB_MISSION: 'AUTO.MISSION',
-                   px4_modes.SUB_RTL: 'AUTO.RTL', px4_modes.SUB_TAKEOFF: 'AUTO.TAKEOFF',
-                   px4_modes.SUB_LAND: 'AUTO.LAND', px4_modes.SUB_FOLLOW_TARGET: 'AUTO.FOLLOW_TARGET',
-                   px4_modes.SUB_PRECLAND: 'AUTO.PRECLAND'}
-# PX4's Descend (a landing without a position) is AUTO.LAND on MAVLink (px4_custom_mode.h); flown as the landing
-FLOWN_AS = {'DESCEND': 'AUTO.LAND'}
-# Commander::dataLinkCheck through telemetry_status: a GCS HEARTBEAT counts for HEARTBEAT_TIMEOUT_US, and
-# MavlinkReceiver::CheckHeartbeats looks every half of it
-GCS_HEARTBEAT_TIMEOUT_S = 2.5
-GCS_HEARTBEAT_CHECK_S = GCS_HEARTBEAT_TIMEOUT_S / 2
-NO_POSITION = fs.Flags(local_position_invalid=True, local_position_invalid_relaxed=True, global_position_invalid=True)
+NO_POSITION = ff.Flags(local_position_invalid=True, local_position_invalid_relaxed=True, global_position_invalid=True)
 HEALTH_CHECK_S = 0.1  # Commander runs its health and arming checks at 10 Hz
-# the checks' STATUSTEXT lines and what they clear (HealthAndArmingChecks/checks/*.cpp)
-BATTERY_CHECKS = {
-    WARNING_LOW: Check('check_battery_low', mavlink.MAV_SEVERITY_CRITICAL, 'Low battery',
-                       mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, False),
-    WARNING_CRITICAL: Check('check_battery_critical', mavlink.MAV_SEVERITY_CRITICAL, 'Critical battery',
-                            mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
-    WARNING_EMERGENCY: Check('check_battery_emergency', mavlink.MAV_SEVERITY_EMERGENCY, 'Emergency battery level',
-                             mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
-}
-NO_GCS_CHECK = Check('check_rc_dl_no_dllink', mavlink.MAV_SEVERITY_WARNING,
-                     'Preflight Fail: No connection to the GCS', 0, True)
-GEOFENCE_CHECK = Check('check_gf_violation_custom_gf', mavlink.MAV_SEVERITY_CRITICAL,
-                       'Geofence: approaching or outside geofence', 0, True)
-GEOFENCE_DISTANCE_CHECK = Check('check_gf_violation_max_hor_dist', mavlink.MAV_SEVERITY_CRITICAL,
-                                'Geofence: exceeding maximum distance to Home', 0, True)
-GEOFENCE_ALTITUDE_CHECK = Check('check_gf_violation_max_alt', mavlink.MAV_SEVERITY_CRITICAL,
-                                'Geofence: exceeding maximum altitude above Home', 0, True)
-
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
-# The logger's bit in SYS_STATUS (reference/px4-sitl-measured.md, "Turn 3 recordings", section 6):
-# back about 0.3 s after arming; gone 3.9 s, 4.1 s and 2.2 s after disarms that ended logs of
-# about 2.6 s (or since boot), 1.9 s and 0.6 s. PX4's LoggerChecks counts the logger as running
-# while its last status is under 3 s old; how long the logger still writes after a disarm grows
-# with what it has buffered. One rule reproduces the three within 10 %: the bit goes
-# LOG_CLOSE_BASE_S + LOG_CLOSE_PER_S x (seconds logged) after the disarm, at most LOG_CLOSE_MAX_S
-# (2.26, 3.78 and 4.0 s for the three cases).
-LOG_START_S = 0.3
-LOG_CLOSE_BASE_S, LOG_CLOSE_PER_S, LOG_CLOSE_MAX_S = 1.5, 1.2, 4.0
-
-
-def set_mode_target(base_mode, main_mode, sub_mode):
-    """(mode, None) for DO_SET_MODE's base_mode, custom main and sub mode (SET_MODE's too), or
-    (None, PX4's text) when PX4 has no such mode, as Commander::handle_command's DO_SET_MODE branch:
-    each field cast to a byte; POSCTL with sub mode 2 is Position Slow and with any other POSCTL
-    itself (ORBIT, 1, is not reached this way); AUTO with sub mode 0 is the mission, READY, RTGS,
-    VTOL_TAKEOFF (a multicopter) and unknown sub modes are refused, as are the main modes
-    RATTITUDE (8), SIMPLE (9), TERMINATION (10) and unknown ones. Without the custom mode flag, the
-    base mode's flags choose a mission, POSCTL, STABILIZED or MANUAL. The external modes (AUTO
-    11-18) are refused: none is registered here."""
-    base_mode, main_mode, sub_mode = int(base_mode) & 0xFF, int(main_mode) & 0xFF, int(sub_mode) & 0xFF
-    if not base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-        if base_mode & mavlink.MAV_MODE_FLAG_AUTO_ENABLED:
-            return 'AUTO.MISSION', None
-        if base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED:
-            if base_mode & mavlink.MAV_MODE_FLAG_GUIDED_ENABLED:
-                return 'POSCTL', None
-            if base_mode & mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED:
-                return 'STABILIZED', None
-            return 'MANUAL', None
-        return None, 'Unsupported base mode'
-    if main_mode == px4_modes.MAIN_POSCTL:
-        return ('POSCTL.SLOW' if sub_mode == px4_modes.SUB_POSCTL_SLOW else 'POSCTL'), None
-    if main_mode == px4_modes.MAIN_AUTO:
-        if sub_mode == 0:
-            return 'AUTO.MISSION', None
-        mode = _AUTO_SUB_MODES.get(sub_mode)
-        return (mode, None) if mode else (None, 'Unsupported auto mode')
-    mode = _MAIN_MODES.get(main_mode)
-    return (mode, None) if mode else (None, 'Unsupported main mode')
-
-
-def log_close_s(logged_s):
-    """Seconds from a disarm until the logger's bit goes, for a log that ran `logged_s`."""
-    return min(LOG_CLOSE_BASE_S + LOG_CLOSE_PER_S * logged_s, LOG_CLOSE_MAX_S)
-
-
 class Commander:
     def __init__(self, params, now_s, ready_delay_s=5.0, rc=False):
         self.params = params
@@ -171,13 +88,9 @@ class Commander:
         self.offboard_needs_position = False  # the last setpoint controls position (OffboardChecks)
         self.user_mode = self.nav_mode = self.fallback_mode = 'AUTO.LOITER'
         self.mode_change_requested = False
-        self.log_start_s, self.log_stop_s = now_s, None  # SDLOG_MODE 1: logging from boot
-        # the data link: no ground station at boot (Commander's constructor), heard through telemetry_status
-        self.gcs_connection_lost = True
-        self.gcs_heartbeat_s = None      # the last GCS HEARTBEAT
-        self.gcs_seen_s = None           # the last telemetry_status that had one
-        self.gcs_checked_s = now_s
-        self.flags = fs.Flags(manual_control_signal_lost=not rc, offboard_control_signal_lost=True,
+        self.logger = LoggerStatus(now_s)
+        self.data_link = DataLink(params, now_s)  # no ground station at boot
+        self.flags = ff.Flags(manual_control_signal_lost=not rc, offboard_control_signal_lost=True,
                               gcs_connection_lost=True)
         self.failsafe_state = fs.Failsafe(params)
         self.failsafe_state.on_notify_user = lambda: self.health.report_if_unreported(self.now_s)
@@ -205,8 +118,7 @@ class Commander:
 
     def logging(self, now_s):
         """The logger runs (SYS_STATUS's LOGGING present and enabled bits)."""
-        return (self.log_start_s is not None and now_s >= self.log_start_s
-                and (self.log_stop_s is None or now_s < self.log_stop_s))
+        return self.logger.running(now_s)
 
     def offboard_signal(self, now_s):
         return self.offboard_s is not None and now_s - self.offboard_s <= self.params['COM_OF_LOSS_T']
@@ -244,10 +156,10 @@ class Commander:
             self._say(severity, text, on_link)
         state.notices.clear()
         action = state.selected
-        if action == fs.Action.DISARM and self.armed:
+        if action == ff.Action.DISARM and self.armed:
             self._disarm('failsafe', now_s)  # Commander::disarm(failsafe, forced)
             return
-        mode = 'TERMINATION' if action == fs.Action.TERMINATE else fs.mode_from_action(action, self.user_mode)
+        mode = 'TERMINATION' if action == ff.Action.TERMINATE else ff.mode_from_action(action, self.user_mode)
         mode = FLOWN_AS.get(mode, mode)
         self.failsafe = state.in_failsafe()
         if mode != self.nav_mode:
@@ -273,7 +185,7 @@ class Commander:
                 reason = 'Switching to %s is currently not available: no manual control' % mode
             elif mode == 'AUTO.MISSION' and not self.has_mission:
                 reason = 'Switching to Mission is currently not available: no valid mission'
-            elif not fs.mode_can_run(self.flags, mode):
+            elif not ff.mode_can_run(self.flags, mode):
                 reason = 'Switching to %s is currently not available' % mode
             if reason:
                 self._say(mavlink.MAV_SEVERITY_CRITICAL, reason)
@@ -352,15 +264,13 @@ class Commander:
             return 'no manual control', TEMPORARILY_REJECTED
         if self.nav_mode == 'AUTO.MISSION' and not self.has_mission:
             return 'no valid mission', TEMPORARILY_REJECTED
-        if not self.position_valid and not fs.mode_can_run(NO_POSITION, self.nav_mode):
+        if not self.position_valid and not ff.mode_can_run(NO_POSITION, self.nav_mode):
             return 'mode %s needs a position' % self.nav_mode, TEMPORARILY_REJECTED
         return None, ACCEPTED
 
     def _arm(self, now_s):
         self.armed, self.armed_s = True, now_s
-        if not self.logging(now_s):  # a log still closing goes on; otherwise a new one starts
-            self.log_start_s = now_s + LOG_START_S
-        self.log_stop_s = None
+        self.logger.on_arm(now_s)
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(True, 'commanded'))
         self._say(mavlink.MAV_SEVERITY_INFO, 'Armed by external command')
@@ -369,8 +279,7 @@ class Commander:
     def _disarm(self, why, now_s):
         """Commander::disarm; `why` as PX4's arm_disarm_reason_str says it."""
         self.armed = False
-        logged_s = max(0.0, now_s - self.log_start_s) if self.log_start_s is not None else 0.0
-        self.log_stop_s = now_s + log_close_s(logged_s)
+        self.logger.on_disarm(now_s)
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(False, why))
         self._say(mavlink.MAV_SEVERITY_INFO, 'Disarmed by %s' % why)
@@ -396,7 +305,7 @@ class Commander:
 
     def on_gcs_heartbeat(self, now_s):
         """A ground station's HEARTBEAT (MAV_TYPE_GCS from another system) on any link."""
-        self.gcs_heartbeat_s = now_s
+        self.data_link.on_gcs_heartbeat(now_s)
 
     def on_manual_control(self, now_s):
         """MANUAL_CONTROL from a ground station (PX4 SITL's COM_RC_IN_MODE 1: MAVLink manual control only)."""
@@ -419,7 +328,8 @@ class Commander:
         if not self.ready_announced and self.ready(now_s):
             self.ready_announced = True
             self._event(mavlink.MAV_SEVERITY_INFO, 'Ready for takeoff!')
-        self._data_link_check(now_s)
+        for severity, text in self.data_link.check(now_s):
+            self._say(severity, text)
         self._battery_status_check()
         self._update_failsafe(now_s)
         if self.health_checked_s is None or now_s - self.health_checked_s >= HEALTH_CHECK_S - 1e-9:
@@ -427,21 +337,6 @@ class Commander:
             self._update_flags(now_s)
             for severity, text in self.health.update(now_s, self._failing_checks()):
                 self._say(severity, text)
-
-    def _data_link_check(self, now_s):
-        """Commander::dataLinkCheck: lost when no telemetry_status had a GCS HEARTBEAT for COM_DL_LOSS_T."""
-        if now_s - self.gcs_checked_s >= GCS_HEARTBEAT_CHECK_S:
-            self.gcs_checked_s = now_s
-            if self.gcs_heartbeat_s is not None and now_s - self.gcs_heartbeat_s <= GCS_HEARTBEAT_TIMEOUT_S:
-                if self.gcs_connection_lost:
-                    self.gcs_connection_lost = False
-                    if self.gcs_seen_s is not None:
-                        self._say(mavlink.MAV_SEVERITY_INFO, 'GCS connection regained')
-                self.gcs_seen_s = now_s
-        if (not self.gcs_connection_lost and self.gcs_seen_s is not None
-                and now_s - self.gcs_seen_s > self.params['COM_DL_LOSS_T']):
-            self.gcs_connection_lost = True
-            self._say(mavlink.MAV_SEVERITY_INFO, 'Connection to ground station lost')
 
     def _battery_status_check(self):
         """Commander::battery_status_check: an emergency level asks the board to shut down, which PX4 SITL
@@ -458,24 +353,14 @@ class Commander:
         # OffboardChecks: position setpoints need a valid position to count as an offboard signal
         f.offboard_control_signal_lost = not self.offboard_signal(now_s) or (self.offboard_needs_position and invalid)
         f.manual_control_signal_lost = not self._rc_signal()
-        f.gcs_connection_lost = self.gcs_connection_lost
+        f.gcs_connection_lost = self.data_link.lost
         f.geofence_breached = bool(self.geofence_result)
         f.auto_mission_missing = not self.has_mission
         f.battery_warning = max(f.battery_warning, self.battery_warning) if self.armed else self.battery_warning
         f.local_position_invalid = f.local_position_invalid_relaxed = f.global_position_invalid = invalid
 
     def _failing_checks(self):
-        checks = []
-        if self.flags.battery_warning in BATTERY_CHECKS:
-            checks.append(BATTERY_CHECKS[self.flags.battery_warning])
-        if self.gcs_connection_lost and self.params['NAV_DLL_ACT'] > 0:
-            checks.append(NO_GCS_CHECK)
-        if self.params['GF_ACTION'] != 0:
-            for breach, check in (('max_dist', GEOFENCE_DISTANCE_CHECK), ('max_alt', GEOFENCE_ALTITUDE_CHECK),
-                                  ('custom', GEOFENCE_CHECK)):
-                if breach in self.geofence_result:
-                    checks.append(check)
-        return checks
+        return failing_checks(self.flags, self.data_link.lost, self.geofence_result, self.params)
 
     def check_landing(self, now_s):
         """After the vehicle stepped: takeoff and landing detection, the auto-disarm timers."""

@@ -16,6 +16,9 @@ the failsafe, and "Emergency battery level" 2 s after that failsafe (reference/p
 
 from typing import NamedTuple
 
+from offboard_py.dialect import mavlink
+from offboard_py.sim.battery_simulator import WARNING_CRITICAL, WARNING_EMERGENCY, WARNING_LOW
+
 MIN_REPORTING_INTERVAL_S = 2.0  # Report's min_reporting_interval default
 
 
@@ -28,6 +31,42 @@ class Check(NamedTuple):
     text: str
     health_bits: int = 0
     blocks_arming: bool = False
+
+
+# the checks' STATUSTEXT lines and what they clear (HealthAndArmingChecks/checks/*.cpp)
+BATTERY_CHECKS = {
+    WARNING_LOW: Check('check_battery_low', mavlink.MAV_SEVERITY_CRITICAL, 'Low battery',
+                       mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, False),
+    WARNING_CRITICAL: Check('check_battery_critical', mavlink.MAV_SEVERITY_CRITICAL, 'Critical battery',
+                            mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
+    WARNING_EMERGENCY: Check('check_battery_emergency', mavlink.MAV_SEVERITY_EMERGENCY, 'Emergency battery level',
+                             mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
+}
+NO_GCS_CHECK = Check('check_rc_dl_no_dllink', mavlink.MAV_SEVERITY_WARNING,
+                     'Preflight Fail: No connection to the GCS', 0, True)
+GEOFENCE_CHECK = Check('check_gf_violation_custom_gf', mavlink.MAV_SEVERITY_CRITICAL,
+                       'Geofence: approaching or outside geofence', 0, True)
+GEOFENCE_DISTANCE_CHECK = Check('check_gf_violation_max_hor_dist', mavlink.MAV_SEVERITY_CRITICAL,
+                                'Geofence: exceeding maximum distance to Home', 0, True)
+GEOFENCE_ALTITUDE_CHECK = Check('check_gf_violation_max_alt', mavlink.MAV_SEVERITY_CRITICAL,
+                                'Geofence: exceeding maximum altitude above Home', 0, True)
+
+
+def failing_checks(flags, gcs_connection_lost, geofence_result, params):
+    """The checks failing on these conditions (failsafe_flags_s, the data link, the navigator's geofence
+    breaches): batteryCheck, rcAndDataLinkCheck (only where NAV_DLL_ACT acts), geofenceCheck (only where
+    GF_ACTION does)."""
+    checks = []
+    if flags.battery_warning in BATTERY_CHECKS:
+        checks.append(BATTERY_CHECKS[flags.battery_warning])
+    if gcs_connection_lost and params['NAV_DLL_ACT'] > 0:
+        checks.append(NO_GCS_CHECK)
+    if params['GF_ACTION'] != 0:
+        for breach, check in (('max_dist', GEOFENCE_DISTANCE_CHECK), ('max_alt', GEOFENCE_ALTITUDE_CHECK),
+                              ('custom', GEOFENCE_CHECK)):
+            if breach in geofence_result:
+                checks.append(check)
+    return checks
 
 
 class HealthReport:

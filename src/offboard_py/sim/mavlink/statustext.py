@@ -6,6 +6,7 @@ import collections
 import logging
 
 from offboard_py.dialect import mavlink
+from offboard_py.sim.data_link import GCS_HEARTBEAT_TIMEOUT_S
 from offboard_py.sim.mavlink.streams import send_on
 
 log = logging.getLogger('offboard_py.sim')
@@ -13,7 +14,6 @@ log = logging.getLogger('offboard_py.sim')
 # PX4's STATUSTEXT stream (streams/STATUSTEXT.hpp) sends on a link only while a MAV_TYPE_GCS HEARTBEAT was
 # heard on it within telemetry_status HEARTBEAT_TIMEOUT_US (2.5 s), one text each time it runs (20 Hz), from
 # the mavlink_log queue (8 deep: older texts are overwritten), dropping texts older than 5 s
-GCS_HEARTBEAT_TIMEOUT_S = 2.5
 STATUSTEXT_INTERVAL_S = 0.05
 STATUSTEXT_QUEUE = 8
 STATUSTEXT_STALE_S = 5.0
