@@ -7,6 +7,9 @@ COM_FAIL_ACT_T first where the action allows the pilot to take over) and that th
 running, it logged the takeover and asked for OFFBOARD no more. The case is the test's ~case parameter
 (failsafe_<case>.test)."""
 
+import json
+import os
+
 import rosnode
 import rospy
 import rostest
@@ -22,6 +25,8 @@ DL_LOSS_S = 10.0          # COM_DL_LOSS_T
 GCS_TIMEOUT_S = 2.5       # telemetry_status keeps a GCS HEARTBEAT this long (HEARTBEAT_TIMEOUT_US)
 NOAID_TIMEOUT_S = 5.0     # EKF2_NOAID_TOUT: EKF2 keeps a position this long without GPS
 FENCE_RADIUS_M = 5.0
+# where each case appends its figures (one JSON line), for setting the simulated PX4's beside real PX4's
+FIGURES_ENV = 'OFFBOARD_PY_FAILSAFE_FIGURES'
 
 
 class FailsafeCase(OffboardTestCase):
@@ -50,9 +55,21 @@ class FailsafeCase(OffboardTestCase):
         first_out = next(i for i, mode in enumerate(armed) if mode != 'OFFBOARD')
         self.assertNotIn('OFFBOARD', armed[first_out:], 'back in OFFBOARD after the failsafe: %s' % armed)
 
+    def disarmed_after(self, start):
+        return next(t for t, s in self.vehicle.states_since(start) if not s.armed) - start
+
     def wait_landed_and_disarmed(self, timeout_s=60.0):
         self.wait_for_armed(self.vehicle, False, timeout_s)
         self.assertEqual(self.vehicle.extended_state.landed_state, ExtendedState.LANDED_STATE_ON_GROUND)
+
+    def record(self, **figures):
+        """The case's figures (s after the failure, m): logged, and appended to $OFFBOARD_PY_FAILSAFE_FIGURES."""
+        figures = dict(case=rospy.get_param('~case'), **{k: round(v, 2) for k, v in figures.items()})
+        rospy.loginfo('failsafe figures: %s', figures)
+        path = os.environ.get(FIGURES_ENV)
+        if path:
+            with open(path, 'a') as f:
+                f.write(json.dumps(figures) + '\n')
 
     def seconds_to(self, mode, start, timeout_s):
         self.wait_for_mode(self.vehicle, mode, timeout_s)
@@ -73,6 +90,7 @@ class Battery(FailsafeCase):
         self.assertLessEqual(abs(held - 2.58), 0.25 * 2.58 + STATE_PERIOD_S, 'Hold %.2f s after, PX4 2.58 s' % held)
         self.assertLessEqual(abs(landing - 8.11), 0.25 * 8.11, 'AUTO.LAND %.2f s after, PX4 8.11 s' % landing)
         self.wait_landed_and_disarmed()
+        self.record(hold_s=held, land_s=landing, disarmed_s=self.disarmed_after(start))
         self.assert_node_respected_the_failsafe(start)
         said = [text for _, _, text in self.failures.texts(start)]
         for text in ('Low battery', 'Failsafe activated: entering Hold for 5 seconds', 'Emergency battery level',
@@ -96,6 +114,7 @@ class DataLink(FailsafeCase):
         self.assertLessEqual(held, DL_LOSS_S + GCS_TIMEOUT_S + STATE_PERIOD_S + 0.5)
         self.assertAlmostEqual(returning - held, FAIL_ACT_S, delta=STATE_PERIOD_S + 0.3)
         self.wait_landed_and_disarmed()
+        self.record(hold_s=held, rtl_s=returning, disarmed_s=self.disarmed_after(start))
         self.assert_node_respected_the_failsafe(start)
 
 
@@ -115,6 +134,7 @@ class Geofence(FailsafeCase):
         self.assertLess(abs(north - FENCE_RADIUS_M), 2.5, 'holds %.1f m north, the fence at %.0f m' % (
             north, FENCE_RADIUS_M))
         self.assertEqual(self.vehicle.state.mode, 'AUTO.LOITER')
+        self.record(hold_north_m=north)
         self.assert_node_respected_the_failsafe(start)
 
 
@@ -130,6 +150,7 @@ class Gps(FailsafeCase):
         self.assertGreaterEqual(took, NOAID_TIMEOUT_S)
         self.assertLessEqual(took, NOAID_TIMEOUT_S + STATE_PERIOD_S + 0.5)
         self.assert_holds(self.vehicle, 2.0, 0.3, 3.0)
+        self.record(altctl_s=took)
         self.assert_node_respected_the_failsafe(start)
 
 
@@ -147,6 +168,7 @@ class ManualControl(FailsafeCase):
         self.assertLessEqual(held, 0.5 + STATE_PERIOD_S + 0.3, 'COM_RC_LOSS_T 0.5 s: held after %.2f s' % held)
         self.assertAlmostEqual(returning - held, FAIL_ACT_S, delta=STATE_PERIOD_S + 0.3)
         self.wait_landed_and_disarmed()
+        self.record(hold_s=held, rtl_s=returning, disarmed_s=self.disarmed_after(start))
         self.assert_node_respected_the_failsafe(start)
 
 
@@ -172,6 +194,7 @@ class OffboardLoss(FailsafeCase):
         self.assertEqual(self.vehicle.state.mode, expected)
         self.assertLessEqual(left - last, 1.0 + 0.1 + STATE_PERIOD_S + 0.3,
                              'COM_OF_LOSS_T 1 s: left OFFBOARD %.2f s after the last setpoint' % (left - last))
+        self.record(obl_act=obl_act, joystick=int(bool(joystick)), left_offboard_s=left - last)
 
 
 CASES = {'battery': Battery, 'data_link': DataLink, 'geofence': Geofence, 'gps': Gps, 'rc': ManualControl,
