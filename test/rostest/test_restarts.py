@@ -16,7 +16,7 @@ import rosgraph
 import rospy
 import rostest
 
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
+from offboard_py.testing.rostest_common import START_WALL_S, OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 
@@ -47,7 +47,9 @@ class RestartsTest(OffboardTestCase):
             with vehicle.lock:
                 return next((s.mode for t, s in vehicle.states if t >= killed and s.mode not in ('OFFBOARD', '')),
                             None)
-        self.wait_until(failsafe_seen, 30.0, 'the failsafe after the bridge was killed', [vehicle])
+        # seen through the respawned bridge: a process start, in wall time whatever the speed
+        self.wait_until(failsafe_seen, 30.0, 'the failsafe after the bridge was killed', [vehicle],
+                        min_wall_s=START_WALL_S)
         rospy.loginfo('bridge killed: the vehicle went to %s', failsafe_seen())
         self.wait_back_at_2m(vehicle, 'the bridge respawned')
         self.assertNotEqual(node_pid('/mavros'), bridge_before, 'the bridge was not respawned')
@@ -63,7 +65,8 @@ class RestartsTest(OffboardTestCase):
         arms_before = node_log.count('Vehicle armed')
         os.kill(pids[0], signal.SIGKILL)
         self.wait_until(lambda: not vehicle.state.connected, 3.0 + 2.0, 'disconnected after conn/timeout', [vehicle])
-        self.wait_until(lambda: vehicle.state.connected, 30.0, 'connected to the restarted vehicle', [vehicle])
+        self.wait_until(lambda: vehicle.state.connected, 30.0, 'connected to the restarted vehicle', [vehicle],
+                        min_wall_s=START_WALL_S)
         self.assertFalse(vehicle.state.armed, 'a restarted vehicle is disarmed')
         self.wait_back_at_2m(vehicle, 'the vehicle restarted')
         self.assertGreater(node_log.count('Vehicle armed'), arms_before, 'the node did not re-arm')
