@@ -83,7 +83,7 @@ class Battery(FailsafeCase):
         returns at critical), EMERGENCY meanwhile: Land when the Hold ends (PX4 SITL, reference/
         px4-sitl-battery-off.json: Hold at 2.58 s, AUTO.LAND at 8.11 s in HEARTBEAT)."""
         self.fly()
-        start = now()
+        start, said_since = now(), self.failures.now()  # ROS time; the ground station's clock
         self.assertEqual(self.failures.battery_off(), 0)
         held = self.seconds_to('AUTO.LOITER', start, 10.0)
         landing = self.seconds_to('AUTO.LAND', start, 15.0)
@@ -92,7 +92,7 @@ class Battery(FailsafeCase):
         self.wait_landed_and_disarmed()
         self.record(hold_s=held, land_s=landing, disarmed_s=self.disarmed_after(start))
         self.assert_node_respected_the_failsafe(start)
-        said = [text for _, _, text in self.failures.texts(start)]
+        said = [text for _, _, text in self.failures.texts(said_since)]
         for text in ('Low battery', 'Failsafe activated: entering Hold for 5 seconds', 'Emergency battery level',
                      'Failsafe activated'):
             self.assertIn(text, said)

@@ -59,7 +59,8 @@ def test_battery_off_as_a_ground_station_saw_it_on_px4(gcs):
         if row['t'] > LANDING_BEGINS_S or row['message'] == 'COMMAND_ACK':
             continue
         if row['message'] == 'STATUSTEXT':
-            got = first('STATUSTEXT', lambda m: m.text == row['text'] and m.severity == row['severity'])
+            # on the wire PX4 ends these lines with a tab (they go out as events too); the recording shows them without
+            got = first('STATUSTEXT', lambda m: m.text == row['text'] + '\t' and m.severity == row['severity'])
         elif row['message'] == 'SYS_STATUS':
             got = first('SYS_STATUS', lambda m: not m.onboard_control_sensors_health & row['health_lost'])
         elif row['message'] == 'EXTENDED_SYS_STATE':

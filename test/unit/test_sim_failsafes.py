@@ -113,8 +113,11 @@ def test_battery_off_in_hold_follows_the_recorded_px4_timeline():
         if row['t'] > LANDING_BEGINS_S:
             continue  # the landing: not held (test_battery_off_lands_disarms_...)
         if row['message'] == 'STATUSTEXT':
-            ours[row['t']] = v.said(row['text'], t0)
-            severity = next(e.severity for t, e in v.texts if e.text == row['text'] and t >= t0)
+            # the recording gives each line as a ground station shows it; on the wire PX4 ends those it also
+            # sends as events with a tab (batteryCheck.cpp "Low battery\t", framework.cpp "Failsafe activated\t")
+            text = row['text'] + '\t'
+            ours[row['t']] = v.said(text, t0)
+            severity = next(e.severity for t, e in v.texts if e.text == text and t >= t0)
             assert severity == row['severity'], row
         elif 'health_lost' in row:
             bit = row['health_lost']
@@ -149,7 +152,7 @@ def test_battery_off_lands_disarms_and_leaves_the_vehicle_unable_to_arm():
     t0 = v.t
     v.inject(M.FAILURE_UNIT_SYSTEM_BATTERY, M.FAILURE_TYPE_OFF)
     v.until(lambda st: not st.armed, 40.0, 'the disarm')
-    assert v.said('Landing detected', t0) < v.said('Disarmed by landing', t0)
+    assert v.said('Landing detected\t', t0) < v.said('Disarmed by landing\t', t0)
     st = v.flight.status(v.t)
     assert (st.nav_mode, st.failsafe, st.system_status) == ('AUTO.LOITER', False, M.MAV_STATE_UNINIT)
     assert st.battery_warning == WARNING_EMERGENCY and st.landed_state == M.MAV_LANDED_STATE_ON_GROUND
@@ -179,12 +182,12 @@ def test_battery_drained_to_a_percentage_warns_then_returns():
     st = v.flight.status(v.t)
     assert st.battery_warning == WARNING_LOW and 0.13 <= st.battery_remaining <= 0.15
     assert (st.nav_mode, st.failsafe) == ('OFFBOARD', False), 'a low battery only warns'
-    assert v.said('Low battery', t0) is not None
+    assert v.said('Low battery\t', t0) is not None
     v.flight.params.set('SIM_BAT_MIN_PCT', 6.0)
     t1 = v.t
     v.until(lambda st: st.failsafe, 5.0, 'the critical-battery failsafe')
     assert v.flight.status(v.t).nav_mode == 'AUTO.LOITER' and v.said(
-        'Failsafe activated: entering Hold for 5 seconds', t1) is not None
+        'Failsafe activated: entering Hold for 5 seconds\t', t1) is not None
     held = v.until(lambda st: st.nav_mode == 'AUTO.RTL', 8.0, 'the return')
     assert 4.8 <= held <= 5.2, 'Hold for COM_FAIL_ACT_T 5 s, then Return: %.2f s' % held
     assert v.flight.status(v.t).user_mode == 'OFFBOARD', 'the user\'s mode stays'
@@ -225,8 +228,8 @@ def test_data_link_loss_is_ignored_by_default_and_returns_with_nav_dll_act():
     lost_s = v.t - last
     assert 10.0 + 1.25 <= lost_s <= 10.0 + 2.5 + 0.2, 'GCS lost %.2f s after its last HEARTBEAT' % lost_s
     assert v.flight.status(v.t).nav_mode == 'AUTO.LOITER'
-    assert v.said('Connection to ground station lost', last) is not None
-    assert v.said('Failsafe activated: entering Hold for 5 seconds', last) is not None
+    assert v.said('Connection to ground station lost\t', last) is not None
+    assert v.said('Failsafe activated: entering Hold for 5 seconds\t', last) is not None
     held = v.until(lambda st: st.nav_mode == 'AUTO.RTL', 8.0, 'the return')
     assert 4.8 <= held <= 5.2
 
@@ -378,7 +381,7 @@ def test_framework_delays_auto_actions_and_not_fallbacks():
     state.update(5.2, True, 'OFFBOARD', False, flags)
     assert state.selected == ff.Action.LAND
     assert [text for _, text, on_link in state.notices if on_link] == [
-        'Failsafe activated: entering Hold for 5 seconds', 'Failsafe activated']
+        'Failsafe activated: entering Hold for 5 seconds\t', 'Failsafe activated\t']
     other = fs.Failsafe(params)
     flags = ff.Flags(manual_control_signal_lost=True)  # no RC at arming: no RC failsafe
     other.update(0.0, True, 'OFFBOARD', False, flags)

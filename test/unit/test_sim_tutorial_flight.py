@@ -123,9 +123,9 @@ def test_the_whole_flight_says_only_px4s_log_lines_which_never_reach_mavros():
     px4-sitl-measured.md "Turn 4 recordings" item 6) and PX4's STATUSTEXT stream sends only where a GCS
     HEARTBEAT was heard (sim.mavlink.statustext): never to mavros."""
     tut = failsafe_flight()[0]
-    assert [e.text for e in tut.texts if e.on_link] == ['Armed by external command', 'Takeoff detected',
-                                                        'Failsafe activated', 'Landing detected',
-                                                        'Disarmed by landing']
+    assert [e.text for e in tut.texts if e.on_link] == ['Armed by external command\t', 'Takeoff detected\t',
+                                                        'Failsafe activated\t', 'Landing detected\t',
+                                                        'Disarmed by landing\t']
 
 
 def test_the_failsafe_return_sends_the_gimbal_commands_and_the_landing_its_idle_item_as_px4():

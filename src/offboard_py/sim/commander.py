@@ -55,10 +55,12 @@ from offboard_py.sim.battery_simulator import WARNING_EMERGENCY, WARNING_NONE
 from offboard_py.sim.data_link import DataLink
 from offboard_py.sim.health_checks import HealthReport, failing_checks
 from offboard_py.sim.logger_status import LoggerStatus
-from offboard_py.sim.mode_util import FLOWN_AS, NOT_ARMABLE, REFUSED_MODES, TRANSIENT_MODES, set_mode_target
+from offboard_py.sim.mode_util import (FLOWN_AS, NAV_STATE_NAMES, NOT_ARMABLE, REFUSED_MODES, TRANSIENT_MODES,
+                                      set_mode_target)
 
 NO_POSITION = ff.Flags(local_position_invalid=True, local_position_invalid_relaxed=True, global_position_invalid=True)
 HEALTH_CHECK_S = 0.1  # Commander runs its health and arming checks at 10 Hz
+REJECT_PRINT_S = 1.0  # Commander::printRejectMode's interval
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
@@ -88,6 +90,7 @@ class Commander:
         self.offboard_needs_position = False  # the last setpoint controls position (OffboardChecks)
         self.user_mode = self.nav_mode = self.fallback_mode = 'AUTO.LOITER'
         self.mode_change_requested = False
+        self.reject_printed_s = None
         self.logger = LoggerStatus(now_s)
         self.data_link = DataLink(params, now_s)  # no ground station at boot
         self.flags = ff.Flags(manual_control_signal_lost=not rc, offboard_control_signal_lost=True,
@@ -177,23 +180,23 @@ class Commander:
         if mode == self.nav_mode and not self.failsafe:
             return ACCEPTED
         self._update_flags(now_s)  # the checks run for a mode request
-        if self.armed:
-            reason = None
-            if mode == 'OFFBOARD' and not self.offboard_signal(now_s):
-                reason = 'Switching to Offboard is currently not available'
-            elif mode in px4_modes.MANUAL_MODES and not self._rc_signal():
-                reason = 'Switching to %s is currently not available: no manual control' % mode
-            elif mode == 'AUTO.MISSION' and not self.has_mission:
-                reason = 'Switching to Mission is currently not available: no valid mission'
-            elif not ff.mode_can_run(self.flags, mode):
-                reason = 'Switching to %s is currently not available' % mode
-            if reason:
-                self._say(mavlink.MAV_SEVERITY_CRITICAL, reason)
-                # a refused request is still a request: in a failsafe the pilot may take over with it
-                self.mode_change_requested = True
-                return TEMPORARILY_REJECTED
+        if self.armed and not (
+                (mode != 'OFFBOARD' or self.offboard_signal(now_s))
+                and (mode not in px4_modes.MANUAL_MODES or self._rc_signal())
+                and (mode != 'AUTO.MISSION' or self.has_mission) and ff.mode_can_run(self.flags, mode)):
+            self._print_reject_mode(mode, now_s)
+            # a refused request is still a request: in a failsafe the pilot may take over with it
+            self.mode_change_requested = True
+            return TEMPORARILY_REJECTED
         self._enter(mode)
         return ACCEPTED
+
+    def _print_reject_mode(self, mode, now_s):
+        """Commander::printRejectMode: at most one line a second."""
+        if self.reject_printed_s is None or now_s - self.reject_printed_s > REJECT_PRINT_S:
+            self.reject_printed_s = now_s
+            self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Switching to %s is currently not available\t'
+                      % NAV_STATE_NAMES.get(mode, mode))
 
     def request_base_mode(self, base_mode, main_mode, sub_mode, now_s):
         """DO_SET_MODE / SET_MODE fields (set_mode_target) -> request_mode."""
@@ -233,7 +236,7 @@ class Commander:
             return ACCEPTED
         if not force and not (self.landed or self.maybe_landed):
             # PX4's Commander::disarm: TRANSITION_DENIED, which the command answers TEMPORARILY_REJECTED
-            self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Disarming denied: not landed')
+            self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Disarming denied: not landed\t')
             return TEMPORARILY_REJECTED
         self._disarm('external command', now_s)
         return ACCEPTED
@@ -273,7 +276,7 @@ class Commander:
         self.logger.on_arm(now_s)
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(True, 'commanded'))
-        self._say(mavlink.MAV_SEVERITY_INFO, 'Armed by external command')
+        self._say(mavlink.MAV_SEVERITY_INFO, 'Armed by external command\t')
         self._update_failsafe(now_s)
 
     def _disarm(self, why, now_s):
@@ -282,7 +285,7 @@ class Commander:
         self.logger.on_disarm(now_s)
         self.takeoff_detected, self.landed_s = False, None
         self.events.append(ev.ArmingChanged(False, why))
-        self._say(mavlink.MAV_SEVERITY_INFO, 'Disarmed by %s' % why)
+        self._say(mavlink.MAV_SEVERITY_INFO, 'Disarmed by %s\t' % why)
         if self.user_mode in TRANSIENT_MODES:  # UserModeIntention::onDisarm
             self.user_mode = self.fallback_mode
         self._update_failsafe(now_s)
@@ -343,7 +346,7 @@ class Commander:
         cannot ("System does not support shutdown", recorded)."""
         warning = self.flags.battery_warning
         if warning != self.last_battery_warning and warning == WARNING_EMERGENCY:
-            self._say(mavlink.MAV_SEVERITY_CRITICAL, 'System does not support shutdown')
+            self._say(mavlink.MAV_SEVERITY_CRITICAL, 'System does not support shutdown\t')
         self.last_battery_warning = warning
 
     def _update_flags(self, now_s):
@@ -371,7 +374,7 @@ class Commander:
         if not self.landed:
             if not self.takeoff_detected:
                 self.takeoff_detected = True
-                self._say(mavlink.MAV_SEVERITY_INFO, 'Takeoff detected')
+                self._say(mavlink.MAV_SEVERITY_INFO, 'Takeoff detected\t')
             self.landed_s = None
             return
         if not self.takeoff_detected:
@@ -381,7 +384,7 @@ class Commander:
             return
         if self.landed_s is None:
             self.landed_s = now_s
-            self._say(mavlink.MAV_SEVERITY_INFO, 'Landing detected')
+            self._say(mavlink.MAV_SEVERITY_INFO, 'Landing detected\t')
         limit = p['COM_DISARM_LAND']
         if limit >= 0 and now_s - self.landed_s >= limit:
             self._disarm('landing', now_s)

@@ -29,9 +29,9 @@ class DataLink:
                 if self.lost:
                     self.lost = False
                     if self.seen_s is not None:
-                        said.append((mavlink.MAV_SEVERITY_INFO, 'GCS connection regained'))
+                        said.append((mavlink.MAV_SEVERITY_INFO, 'GCS connection regained\t'))
                 self.seen_s = now_s
         if not self.lost and self.seen_s is not None and now_s - self.seen_s > self.params['COM_DL_LOSS_T']:
             self.lost = True
-            said.append((mavlink.MAV_SEVERITY_INFO, 'Connection to ground station lost'))
+            said.append((mavlink.MAV_SEVERITY_INFO, 'Connection to ground station lost\t'))
         return said

@@ -233,14 +233,14 @@ class FailsafeBase:
             self._event(mavlink.MAV_SEVERITY_CRITICAL, '%s: switching to %s in %d seconds'
                         % (_cause_text(cause), _action_text(delayed_action), delay_s))
             self.notices.append((mavlink.MAV_SEVERITY_CRITICAL,
-                                 'Failsafe activated: entering Hold for %d seconds' % delay_s, True))
+                                 'Failsafe activated: entering Hold for %d seconds\t' % delay_s, True))
             return
         if action == Action.WARN:
             self._event(*_WARNINGS.get(cause, (mavlink.MAV_SEVERITY_WARNING,
                                                'Failsafe warning: %s' % _cause_text(cause))))
             return
         self._event(mavlink.MAV_SEVERITY_CRITICAL, '%s: switching to %s' % (_cause_text(cause), _action_text(action)))
-        self.notices.append((mavlink.MAV_SEVERITY_CRITICAL, 'Failsafe activated', True))
+        self.notices.append((mavlink.MAV_SEVERITY_CRITICAL, 'Failsafe activated\t', True))
 
     def _event(self, severity, text):
         self.notices.append((severity, text, False))

@@ -35,11 +35,11 @@ class Check(NamedTuple):
 
 # the checks' STATUSTEXT lines and what they clear (HealthAndArmingChecks/checks/*.cpp)
 BATTERY_CHECKS = {
-    WARNING_LOW: Check('check_battery_low', mavlink.MAV_SEVERITY_CRITICAL, 'Low battery',
+    WARNING_LOW: Check('check_battery_low', mavlink.MAV_SEVERITY_CRITICAL, 'Low battery\t',
                        mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, False),
-    WARNING_CRITICAL: Check('check_battery_critical', mavlink.MAV_SEVERITY_CRITICAL, 'Critical battery',
+    WARNING_CRITICAL: Check('check_battery_critical', mavlink.MAV_SEVERITY_CRITICAL, 'Critical battery\t',
                             mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
-    WARNING_EMERGENCY: Check('check_battery_emergency', mavlink.MAV_SEVERITY_EMERGENCY, 'Emergency battery level',
+    WARNING_EMERGENCY: Check('check_battery_emergency', mavlink.MAV_SEVERITY_EMERGENCY, 'Emergency battery level\t',
                              mavlink.MAV_SYS_STATUS_SENSOR_BATTERY, True),
 }
 NO_GCS_CHECK = Check('check_rc_dl_no_dllink', mavlink.MAV_SEVERITY_WARNING,

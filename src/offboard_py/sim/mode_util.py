@@ -20,6 +20,13 @@ _AUTO_SUB_MODES = {px4_modes.SUB_LOITER: 'AUTO.LOITER', px4_modes.SUB_MISSION: '
                    px4_modes.SUB_RTL: 'AUTO.RTL', px4_modes.SUB_TAKEOFF: 'AUTO.TAKEOFF',
                    px4_modes.SUB_LAND: 'AUTO.LAND', px4_modes.SUB_FOLLOW_TARGET: 'AUTO.FOLLOW_TARGET',
                    px4_modes.SUB_PRECLAND: 'AUTO.PRECLAND'}
+# lib/modes/ui.hpp nav_state_names: how PX4's texts name a mode
+NAV_STATE_NAMES = {'MANUAL': 'Manual', 'ALTCTL': 'Altitude', 'POSCTL': 'Position', 'AUTO.MISSION': 'Mission',
+                   'AUTO.LOITER': 'Hold', 'AUTO.RTL': 'Return', 'POSCTL.SLOW': 'Position Slow',
+                   'ALTITUDE_CRUISE': 'Altitude Cruise', 'ACRO': 'Acro', 'DESCEND': 'Descend',
+                   'TERMINATION': 'Termination', 'OFFBOARD': 'Offboard', 'STABILIZED': 'Stabilized',
+                   'AUTO.TAKEOFF': 'Takeoff', 'AUTO.LAND': 'Land', 'AUTO.FOLLOW_TARGET': 'Follow Target',
+                   'AUTO.PRECLAND': 'Precision Landing', 'POSCTL.ORBIT': 'Orbit', 'AUTO.VTOL_TAKEOFF': 'VTOL Takeoff'}
 # PX4's Descend (a landing without a position) is AUTO.LAND on MAVLink (px4_custom_mode.h); flown as the landing
 FLOWN_AS = {'DESCEND': 'AUTO.LAND'}
 
@@ -43,13 +50,13 @@ def set_mode_target(base_mode, main_mode, sub_mode):
             if base_mode & mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED:
                 return 'STABILIZED', None
             return 'MANUAL', None
-        return None, 'Unsupported base mode'
+        return None, 'Unsupported base mode\t'
     if main_mode == px4_modes.MAIN_POSCTL:
         return ('POSCTL.SLOW' if sub_mode == px4_modes.SUB_POSCTL_SLOW else 'POSCTL'), None
     if main_mode == px4_modes.MAIN_AUTO:
         if sub_mode == 0:
             return 'AUTO.MISSION', None
         mode = _AUTO_SUB_MODES.get(sub_mode)
-        return (mode, None) if mode else (None, 'Unsupported auto mode')
+        return (mode, None) if mode else (None, 'Unsupported auto mode\t')
     mode = _MAIN_MODES.get(main_mode)
-    return (mode, None) if mode else (None, 'Unsupported main mode')
+    return (mode, None) if mode else (None, 'Unsupported main mode\t')

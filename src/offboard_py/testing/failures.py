@@ -23,7 +23,8 @@ failure is what a ground station can do to PX4:
 
 What PX4 says meanwhile is kept: `texts()` (STATUSTEXT: PX4 sends them only to a link with a ground station,
 never to mavros), `modes()` and `latest` (HEARTBEAT, SYS_STATUS, BATTERY_STATUS, EXTENDED_SYS_STATE, ...).
-Times are the simulated clock's (OFFBOARD_PY_SPEED, as the vehicle's). Needs pymavlink, not ROS. Example:
+Times are the simulated clock's (OFFBOARD_PY_SPEED, as the vehicle's): `now()`, not ROS time. Needs pymavlink,
+not ROS. Example:
 examples/my_offboard_check/test/test_failsafe.py and docs/failsafes.md.
 """
 
@@ -97,17 +98,20 @@ class Failures:
 
     # -- what PX4 says ----------------------------------------------------------------------------
 
-    def now(self):
-        return self.clock.now()
-
     def connected(self, timeout_s=10.0):
         """Wait for the vehicle's HEARTBEAT on this link; AssertionError after timeout_s."""
         return self.client.wait_heartbeat(timeout_s)
 
+    def now(self):
+        """This ground station's clock (s), which the times of texts() and modes() and their `since` are on: the
+        simulated clock (speed x monotonic), not ROS time (epoch seconds in real time)."""
+        return self.clock.now()
+
     def texts(self, since=None):
-        """[(time, severity, text)] of the STATUSTEXTs received (after `since`)."""
-        return [(t, m.severity, m.text) for t, m in self.client.received('STATUSTEXT')
-                if since is None or t >= since]
+        """[(time, severity, text)] of the STATUSTEXTs received (after `since`, a time of now()), as a ground station
+        shows them: PX4 ends a line it also sends as an event with a tab ("Low battery\\t"), left out here."""
+        return [(t, m.severity, m.text[:-1] if m.text.endswith('\t') else m.text)
+                for t, m in self.client.received('STATUSTEXT') if since is None or t >= since]
 
     def wait_text(self, text, timeout_s, since=None):
         """The time of the first STATUSTEXT `text` (after `since`); AssertionError saying what came after timeout_s."""
