@@ -17,7 +17,6 @@ watches the clock: /clock then runs that far behind the vehicles, as on a machin
 keep up, whatever the machine.
 """
 
-import sys
 import time
 
 import rospy

@@ -5,7 +5,7 @@
 import rospy
 import rostest
 
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
 
 PKG = 'offboard_py'
 
