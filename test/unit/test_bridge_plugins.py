@@ -4,9 +4,7 @@ Each test builds the real Bridge with the plugin under test on the fakes of brid
 FakeLink, a FakeFcu answering from a per-message-type script, FakeRos, FakeClock moved by the test).
 """
 
-import json
 import math
-import os
 import struct
 import threading
 import time
@@ -26,16 +24,7 @@ from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import HIGHRES_IMU_UPDATED_ACCEL_GYRO, mavlink
 
 from bridge_rig import AUTO_LOITER, BUILD, OFFBOARD, FakeClock, FakeRos, Rig, heartbeat, same_rotation, wait_until
-
-MAVROS_FIGURES = os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..', 'reference',
-                              'mavros-1.21-figures.json')
-
-
-def mavros_figure(plugin, name):
-    """A figure of mavros 1.21.0's source (reference/mavros-1.21-figures.json, which names the file and
-    constant of each): the expected value, never the bridge's own constant."""
-    with open(MAVROS_FIGURES) as f:
-        return json.load(f)[plugin][name]['value']
+from source_figures import mavros_figure
 
 
 def test_all_plugins_offer_mavros_names_latching_and_queues():
