@@ -134,10 +134,14 @@ def test_streams_that_follow_their_data_go_no_faster_than_it():
 # -- SYS_STATUS and HEARTBEAT ------------------------------------------------------------------
 
 def test_sys_status_words_are_px4_sitl_s():
-    assert messages.SENSORS_PRESENT == 0x0300402F
-    assert messages.SENSORS_ENABLED == 0x0301402F
-    assert messages.sensors_health(True) == 0x1320C83F
-    assert messages.sensors_health(False) == 0x1320C83F & ~M.MAV_SYS_STATUS_PREARM_CHECK
+    """reference/px4-sitl-census.json: SYS_STATUS on the ground, ready (arming checks pass), disarmed."""
+    px4 = {name: int(value, 16) for name, value in
+           json.load(open(os.path.join(REPO, 'reference', 'px4-sitl-census.json')))['fields']['SYS_STATUS'].items()
+           if name.startswith('onboard_control_sensors_')}
+    assert messages.SENSORS_PRESENT == px4['onboard_control_sensors_present']
+    assert messages.SENSORS_ENABLED == px4['onboard_control_sensors_enabled']
+    assert messages.sensors_health(True) == px4['onboard_control_sensors_health']
+    assert messages.sensors_health(False) == px4['onboard_control_sensors_health'] & ~M.MAV_SYS_STATUS_PREARM_CHECK
 
 
 def test_readiness_failures_and_disarm_in_status():
