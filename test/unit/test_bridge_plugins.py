@@ -24,6 +24,7 @@ from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import HIGHRES_IMU_UPDATED_ACCEL_GYRO, mavlink
 
 from bridge_rig import AUTO_LOITER, BUILD, OFFBOARD, FakeClock, FakeRos, Rig, heartbeat, same_rotation, wait_until
+from source_figures import mavros_figure
 
 
 def test_all_plugins_offer_mavros_names_latching_and_queues():
@@ -496,7 +497,7 @@ def test_mission_pull_from_a_silent_fcu_fails_after_the_retries(monkeypatch):
     rig = Rig(mission.Mission)
     response = rig.call('~mission/pull', WaypointPullRequest())
     assert (response.success, response.wp_received) == (False, 0)
-    assert len(rig.fcu.got('MISSION_REQUEST_LIST')) == mission.STEP_RETRIES + 1
+    assert len(rig.fcu.got('MISSION_REQUEST_LIST')) == mavros_figure('mission', 'requests_per_step')
 
 
 def test_mission_pull_after_connection_retries_until_the_fcu_answers(monkeypatch):
@@ -512,11 +513,11 @@ def test_mission_pull_after_connection_retries_until_the_fcu_answers(monkeypatch
     answer = fcu._on_request_list
     fcu_requests = []
 
-    def deaf_twice(msg):  # the first two mission pulls (8 requests) get nothing; fence and rally are answered
+    def deaf_twice(msg):  # the first two mission pulls (2 x 4 requests) get nothing; fence and rally are answered
         if msg.mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
             return answer(msg)
         fcu_requests.append(msg)
-        return answer(msg) if len(fcu_requests) > 2 * (mission.STEP_RETRIES + 1) else []
+        return answer(msg) if len(fcu_requests) > 2 * mavros_figure('mission', 'requests_per_step') else []
     rig.fcu.answers['MISSION_REQUEST_LIST'] = deaf_twice
     monkeypatch.setattr(core, 'RETRY_DELAYS_S', (0.01,))
     rig.bridge.set_connected(True)
@@ -656,8 +657,20 @@ def test_param_set_mirrors_the_echoed_value(monkeypatch):
     rig.fcu.answers['PARAM_SET'] = lambda _m: []  # an FCU that stops echoing: its last value stays mirrored
     monkeypatch.setattr(param, 'SET_TIMEOUT_S', 0.05)
     request.value.integer = 9
+    sent_before = len(rig.fcu.got('PARAM_SET'))
     assert not rig.call('~param/set', request).success
     assert rig.ros.get_param('~param/COM_RCL_EXCEPT', None) == 7
+    assert len(rig.fcu.got('PARAM_SET')) - sent_before == mavros_figure('param', 'param_set_sends'), \
+        'as often as mavros sends an unechoed PARAM_SET'
+
+
+def test_mission_and_param_timing_is_mavros_1_21s():
+    """The waits the offline tests shorten: mavros's own, as its source sets them."""
+    assert (mission.STEP_TIMEOUT_S, mission.PULL_AFTER_CONNECT_S) == (
+        mavros_figure('mission', 'step_timeout_s'), mavros_figure('mission', 'pull_after_connect_s'))
+    assert (param.SET_TIMEOUT_S, param.READ_TIMEOUT_S, param.PULL_AFTER_CONNECT_S, param.LIST_TIMEOUT_S) == (
+        mavros_figure('param', 'param_timeout_s'), mavros_figure('param', 'param_timeout_s'),
+        mavros_figure('param', 'pull_after_connect_s'), mavros_figure('param', 'list_timeout_s'))
 
 
 def test_param_push_reads_back_what_the_pull_mirrored_and_skips_mavros_s_excluded_ids(monkeypatch):
@@ -701,15 +714,18 @@ def test_param_get_and_set_before_the_pull_read_from_the_fcu(monkeypatch):
 
 
 def test_param_unknown_to_the_fcu_too_is_false_after_the_retries(monkeypatch):
+    """A read by name is the bridge's own (mavros answers false before its pull); it gives up after as many
+    reads as mavros spends on the first parameter missing from a pull."""
     rig = param_fcu_rig(monkeypatch)
+    reads = mavros_figure('param', 'first_missing_index_reads')
     assert not rig.call('~param/get', ParamGetRequest(param_id='NO_SUCH_PARAM')).success
-    assert len(rig.fcu.got('PARAM_REQUEST_READ')) == param.READ_RETRIES
+    assert len(rig.fcu.got('PARAM_REQUEST_READ')) == reads
     request = ParamSetRequest(param_id='NO_SUCH_PARAM')
     request.value.real = 1.0
     assert not rig.call('~param/set', request).success and rig.fcu.got('PARAM_SET') == []
     too_long = ParamGetRequest(param_id='A' * 17)
     assert not rig.call('~param/get', too_long).success
-    assert len(rig.fcu.got('PARAM_REQUEST_READ')) == 2 * param.READ_RETRIES, 'a bad id is not sent'
+    assert len(rig.fcu.got('PARAM_REQUEST_READ')) == 2 * reads, 'a bad id is not sent'
 
 
 def test_param_get_during_a_pull_waits_for_it(monkeypatch):

@@ -8,10 +8,10 @@ from other systems are not decoded."""
 
 from offboard_py import wire
 from offboard_py.dialect import mavlink
-from offboard_py.link_remote import LOCK_GRACE_S
 from offboard_py.mavlink_link import MavlinkLink
 
 from manual_clock import ManualClock
+from source_figures import px4_figure
 
 BRIDGE, FLOODER, GCS = ('127.0.0.1', 14540), ('127.0.0.1', 40001), ('127.0.0.1', 40002)
 
@@ -60,7 +60,11 @@ def test_default_partner_elsewhere_waits_three_seconds():
         link.handle_datagram(heartbeat(), GCS)
         assert link.remote == ('10.0.0.9', 14540) and not heard, 'read before the partner is known'
         assert link.stats['before_partner'] == 1
-        clock.now_s += LOCK_GRACE_S
+        lock_after_s = px4_figure('mavlink', 'udp_partner_lock_after_s')
+        clock.now_s += lock_after_s - 0.01
+        link.handle_datagram(heartbeat(), GCS)
+        assert link.remote == ('10.0.0.9', 14540) and not heard, 'PX4 takes no partner before %g s' % lock_after_s
+        clock.now_s += 0.01
         link.handle_datagram(heartbeat(), GCS)
         assert link.remote == GCS and len(heard) == 1
     finally:

@@ -6,6 +6,7 @@ as reference/px4-sitl-measured.md ("Turn 3 recordings", section 1) describes.
 """
 
 import os
+import re
 import struct
 
 import pytest
@@ -70,8 +71,12 @@ def test_the_table_is_in_px4s_order_unique_and_well_formed():
 
 
 def test_the_hash_check_is_px4s_and_not_a_parameter():
+    """Name, index and value as reference/px4-sitl-measured.md records PX4 SITL's `_HASH_CHECK`."""
+    with open(os.path.join(REPO, 'reference', 'px4-sitl-measured.md')) as f:
+        name, index, value = re.search(r'`(_HASH_CHECK)` \(type UINT32, param_index (\d+), value (0x[0-9A-F]+)\)',
+                                       f.read()).groups()
     assert (sim_params.HASH_CHECK_NAME, sim_params.HASH_CHECK_INDEX, sim_params.HASH_CHECK_VALUE) == \
-        ('_HASH_CHECK', 65535, 0xBD8B05F8)
+        (name, int(index), int(value, 16))
     assert sim_params.HASH_CHECK_NAME not in ParamStore()
 
 

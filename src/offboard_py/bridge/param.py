@@ -32,8 +32,8 @@ from offboard_py.bridge import c_casts
 
 PULL_AFTER_CONNECT_S = 10.0       # mavros waits for the FCU to boot before pulling
 LIST_TIMEOUT_S = 30.0
-SET_TIMEOUT_S, SET_RETRIES = 1.0, 3
-READ_TIMEOUT_S, READ_RETRIES = 1.0, 3
+SET_TIMEOUT_S, SET_RETRIES = 1.0, 3  # mavros sends an unechoed PARAM_SET again SET_RETRIES times
+READ_TIMEOUT_S, READ_RETRIES = 1.0, 3  # reads of a parameter by name in all, as mavros re-reads a missing index
 PARAM_ID_MAX = 16                 # MAVLink's param_id is char[16]
 QUIET_S = 1.0                     # no PARAM_VALUE for this long: re-read what is missing
 INDEX_UNKNOWN = 0xFFFF            # PARAM_VALUE.param_index when the FCU gives none (MAVLink's -1 as uint16)
@@ -198,7 +198,7 @@ class Param:
         wanted = self._as_sent(req.param_id, param_type, wanted, 'value.integer' if req.value.integer else 'value.real')
         wire = param_codec.encode(param_type, wanted)
         echo = None
-        for _ in range(SET_RETRIES):
+        for _ in range(SET_RETRIES + 1):
             with self.lock:
                 before = self.arrivals[req.param_id]
             b.send(b.mav.param_set_encode(b.target_system, b.target_component, req.param_id.encode(), wire,
@@ -208,7 +208,7 @@ class Param:
                 break
         self._mirror(req.param_id)  # what the FCU last said, echo or not, as mavros's set_cb writes it
         if echo is None:
-            rospy.logerr('PR: %s: no PARAM_VALUE echo after %d tries', req.param_id, SET_RETRIES)
+            rospy.logerr('PR: %s: no PARAM_VALUE echo after %d tries', req.param_id, SET_RETRIES + 1)
             return ParamSetResponse(success=False, value=self._value_msg(*entry))
         value, vtype = echo
         same = value == wanted or (not param_codec.is_integer(vtype) and abs(value - wanted) < 1e-6 *
