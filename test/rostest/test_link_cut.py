@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Link cuts in hover, through the relay's control port. What PX4 and mavros do:
 - setpoints cut (telemetry flowing): the vehicle leaves OFFBOARD COM_OF_LOSS_T after the
-  last setpoint (seen on the next HEARTBEAT, so up to 1 s later), and never goes back by itself;
+  last setpoint (seen on the next HEARTBEAT, so up to 1 s later); when they are back it flies OFFBOARD again
+  (by itself, as PX4 does: reference/px4-sitl-offboard-regain.json, or because the node asked);
 - both ways for 2 s, well under conn/timeout: the bridge stays connected throughout. The HEARTBEATs around
   the cut are up to cut + one period (3 s) apart; conn/timeout is 6 s here so that a scheduling stall of the
   simulator or relay (0.2 s of wall time is 1 s of simulated time at 5x) is not read as a lost link;
 - both ways for LONG_CUT_S, over conn/timeout: the bridge reports disconnected conn/timeout after the
   last HEARTBEAT, then connected when the link is back; the vehicle landed and disarmed meanwhile.
-Each time the node asks for OFFBOARD again (re-arming if needed) and the vehicle returns to 2 m.
+Each time the vehicle returns to 2 m in OFFBOARD (the node re-arming it after the long cut).
 """
 
 import socket
@@ -22,6 +23,7 @@ HEARTBEAT_PERIOD_S = 1.0
 # long enough for PX4 to fail safe and land from 2 m and disarm: COM_OF_LOSS_T 1 s, landing from
 # 2.2 m 12.8 s (PX4 SITL, px4-sitl-measured.md), COM_DISARM_LAND 2 s
 LONG_CUT_S = 20.0
+SETPOINT_CUT_S = 3.0
 
 
 class LinkCutTest(OffboardTestCase):
@@ -45,8 +47,9 @@ class LinkCutTest(OffboardTestCase):
         self.wait_for_connected(vehicle, 30.0)
         self.wait_back_at_2m(vehicle, 'start-up', 60.0)
 
-        # 1. setpoints cut for 2 s: failsafe after COM_OF_LOSS_T, then back to OFFBOARD by the node
-        start = self.cut(2.0, 'to_fcu')
+        # 1. setpoints cut for 3 s: failsafe after COM_OF_LOSS_T, then back to OFFBOARD (by itself, as PX4 does,
+        #    or asked by the node); 3 s so that the failsafe lasts two HEARTBEAT periods and is seen
+        start = self.cut(SETPOINT_CUT_S, 'to_fcu')
         self.wait_until(lambda: vehicle.state.mode != 'OFFBOARD', loss_s + HEARTBEAT_PERIOD_S + 2.0,
                         'leaving OFFBOARD without setpoints', [vehicle])
         left = next(s.header.stamp.to_sec() for t, s in vehicle.states_since(start) if s.mode != 'OFFBOARD')
@@ -55,9 +58,7 @@ class LinkCutTest(OffboardTestCase):
         self.assertIn(vehicle.state.mode, ('AUTO.RTL', 'AUTO.LAND', 'AUTO.LOITER'))
         rospy.loginfo('setpoints cut: %s after %.2f s', vehicle.state.mode, left - start)
         self.assertTrue(all(s.connected for _, s in vehicle.states_since(start)))
-        requests_before = node_log.count('OFFBOARD enabled')
-        self.wait_back_at_2m(vehicle, 'a 2 s setpoint cut', 40.0)
-        self.assertGreater(node_log.count('OFFBOARD enabled'), requests_before, 'the node did not ask again')
+        self.wait_back_at_2m(vehicle, 'a %.0f s setpoint cut' % SETPOINT_CUT_S, 40.0)
 
         # 2. both ways for 2 s, shorter than conn/timeout: never reported disconnected
         self.pause(3.0)

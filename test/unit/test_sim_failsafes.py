@@ -390,3 +390,33 @@ def test_framework_delays_auto_actions_and_not_fallbacks():
     assert other.selected == ff.Action.RTL, 'a mode fallback is not delayed'
     assert ff.mode_from_action(ff.Action.HOLD, 'OFFBOARD') == 'AUTO.LOITER'
     assert math.isclose(params['COM_FAIL_ACT_T'], 5.0)
+
+
+# -- the offboard signal back after its failsafe ----------------------------------------------------
+
+def test_offboard_setpoints_back_fly_offboard_again_as_px4_does():
+    """The offboard-loss failsafe is a mode fallback (failsafe.cpp checkModeFallback, cleared when its condition
+    clears, framework.cpp): with the setpoints back and OFFBOARD still the user's mode, the vehicle flies OFFBOARD
+    again by itself. Held to two runs on real PX4 SITL SIH (reference/px4-sitl-offboard-regain.json): the failsafe
+    mode, then OFFBOARD again within one HEARTBEAT period (1 s) of the setpoints' return."""
+    with open(os.path.join(REFERENCE, 'px4-sitl-offboard-regain.json')) as f:
+        recorded = json.load(f)
+    resumed_s = recorded['setpoints_resumed_s']
+    for run in recorded['runs']:
+        assert [mode for _, mode in run['modes']] == ['OFFBOARD', 'AUTO.RTL', 'OFFBOARD']
+        assert 0.0 < run['modes'][-1][0] - resumed_s <= 1.0
+    v = Vehicle()  # no RC, as PX4 SITL: COM_OBL_RC_ACT 0 falls to NAV_RCL_ACT (Return)
+    v.offboard_at_2m()
+    setpoint, v.setpoint = v.setpoint, None
+    stopped = v.t
+    v.run(resumed_s)
+    assert v.flight.status(v.t).nav_mode == 'AUTO.RTL'
+    v.setpoint = setpoint
+    back = v.t
+    v.until(lambda st: st.nav_mode == 'OFFBOARD', 1.0, 'OFFBOARD again with the setpoints back')
+    assert v.t - back <= 0.2, 'OFFBOARD again %.2f s after the setpoints came back' % (v.t - back)
+    modes = []
+    for t, st in v.changes:
+        if t >= stopped and (not modes or modes[-1] != st.nav_mode):
+            modes.append(st.nav_mode)
+    assert modes == [mode for _, mode in recorded['runs'][0]['modes']], modes

@@ -28,8 +28,9 @@ Rules, as current PX4 applies them (reference/px4-behaviour.md):
   ground station lost (NAV_DLL_ACT: no GCS HEARTBEAT for COM_DL_LOSS_T, Commander::dataLinkCheck), the
   geofence (GF_ACTION), the battery's warning (COM_LOW_BAT_ACT) and a position the estimator lost (the
   modes that need it fall back). The mode flying is the action's; the user's choice stays (CURRENT_MODE's
-  intended mode) and a mode change by the user takes over where the action allows it. The vehicle never
-  goes back to OFFBOARD by itself.
+  intended mode) and a mode change by the user takes over where the action allows it. A mode fallback ends
+  with its condition: offboard setpoints back, the vehicle flies OFFBOARD again by itself while that is
+  still the user's mode (real PX4 SITL does: reference/px4-sitl-offboard-regain.json).
 - What the checks say goes through PX4's report (sim.health_checks): "Low battery", "Emergency battery
   level", "Geofence: ...", the GCS one, at most every 2 s, with the SYS_STATUS health they clear.
 - Arming: refused while not ready, with an injected failure, in OFFBOARD without the
