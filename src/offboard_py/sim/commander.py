@@ -47,6 +47,8 @@ does). Pure: time is passed in, what it knows of the vehicle is set by the fligh
 (`landed`, `has_mission`), and what must be said or done goes to `events` (sim.events).
 """
 
+import math
+
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
@@ -62,6 +64,7 @@ from offboard_py.sim.mode_util import (FLOWN_AS, NAV_STATE_NAMES, NOT_ARMABLE, R
 NO_POSITION = ff.Flags(local_position_invalid=True, local_position_invalid_relaxed=True, global_position_invalid=True)
 HEALTH_CHECK_S = 0.1  # Commander runs its health and arming checks at 10 Hz
 REJECT_PRINT_S = 1.0  # Commander::printRejectMode's interval
+MANUAL_CONTROL_RUN_S = 0.2  # ManualControl::Run without a new sample (ScheduleDelayed(200_ms))
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
@@ -316,10 +319,16 @@ class Commander:
         self.manual_control_s = now_s
 
     def _rc_signal(self):
-        """Manual control is there: the simulated RC, or MANUAL_CONTROL younger than COM_RC_LOSS_T
-        (RcAndDataLinkChecks)."""
-        return self.rc or (self.manual_control_s is not None
-                           and self.now_s - self.manual_control_s <= self.params['COM_RC_LOSS_T'])
+        """Manual control is there: the simulated RC, or MANUAL_CONTROL that PX4's ManualControl still takes. Its
+        selector drops an input COM_RC_LOSS_T after its last sample, looking at each sample and, without one,
+        every MANUAL_CONTROL_RUN_S (ManualControl::Run's ScheduleDelayed(200_ms), ManualControlSelector): the
+        loss shows on the first look at or after COM_RC_LOSS_T (0.6 s for PX4 SITL's 0.5)."""
+        if self.rc:
+            return True
+        if self.manual_control_s is None:
+            return False
+        looks = math.ceil(self.params['COM_RC_LOSS_T'] / MANUAL_CONTROL_RUN_S - 1e-9)
+        return self.now_s - self.manual_control_s < looks * MANUAL_CONTROL_RUN_S - 1e-9
 
     # -- the periodic checks ------------------------------------------------------------------
 
