@@ -13,8 +13,10 @@ import os
 import rosnode
 import rospy
 import rostest
-from mavros_msgs.msg import ExtendedState
+from mavros_msgs.msg import ExtendedState, Waypoint
+from mavros_msgs.srv import WaypointPush
 
+from offboard_py.dialect import mavlink
 from offboard_py.testing import Failures, OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
@@ -121,10 +123,15 @@ class DataLink(FailsafeCase):
 class Geofence(FailsafeCase):
 
     def test_leaving_the_fence_holds_inside_reach(self):
-        """A 5 m circle around home uploaded by the mission protocol (mission_type FENCE); the node flies to 10 m
-        north: GF_ACTION 2 (Hold), where the breach was seen; the node leaves it there."""
-        home = self.failures.home()
-        self.assertEqual(self.failures.upload_fence(self.failures.fence_circle(FENCE_RADIUS_M, home[:2])), 0)
+        """A 5 m circle around home uploaded through mavros's geofence/push (the mission protocol with mission_type
+        FENCE), as a ROS user uploads one; the node flies to 10 m north: GF_ACTION 2 (Hold), where the breach was
+        seen; the node leaves it there."""
+        lat, lon, _ = self.failures.home()
+        circle = Waypoint(frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+                          autocontinue=True, param1=FENCE_RADIUS_M, x_lat=lat, y_long=lon)
+        rospy.wait_for_service('mavros/geofence/push', 30.0)
+        pushed = rospy.ServiceProxy('mavros/geofence/push', WaypointPush)(start_index=0, waypoints=[circle])
+        self.assertEqual((pushed.success, pushed.wp_transfered), (True, 1), 'geofence/push: %s' % pushed)
         start = now()
         self.wait_for_offboard_and_armed(self.vehicle, 90.0)
         self.wait_for_mode(self.vehicle, 'AUTO.LOITER', 30.0)

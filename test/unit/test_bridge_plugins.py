@@ -14,7 +14,8 @@ import rospy
 from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import Waypoint
 from mavros_msgs.srv import (CommandBoolRequest, CommandTOLRequest, ParamGetRequest, ParamPullRequest,
-                             ParamSetRequest, SetModeRequest, WaypointPullRequest, WaypointPushRequest)
+                             ParamSetRequest, SetModeRequest, WaypointClearRequest, WaypointPullRequest,
+                             WaypointPushRequest)
 
 from offboard_py import frames
 from offboard_py.bridge import (command, core, global_position, home_position, imu, local_position, mission, node,
@@ -33,6 +34,8 @@ def test_all_plugins_offer_mavros_names_latching_and_queues():
         '~set_mode', '~cmd/arming', '~cmd/takeoff', '~cmd/land', '~cmd/command', '~cmd/command_int',
         '~set_message_interval', '~set_stream_rate', '~param/pull', '~param/get', '~param/set', '~param/push',
         '~mission/push', '~mission/pull', '~mission/clear', '~mission/set_current', '~cmd/command_ack',
+        '~geofence/push', '~geofence/pull', '~geofence/clear', '~rallypoint/push', '~rallypoint/pull',
+        '~rallypoint/clear',
         '~cmd/set_home', '~home_position/req_update'}
     assert set(rig.ros.subscriptions) == {'~setpoint_position/local', '~setpoint_raw/local',
                                           '~setpoint_velocity/cmd_vel', '~setpoint_velocity/cmd_vel_unstamped',
@@ -397,23 +400,27 @@ class MissionFcu:
     def __init__(self, fcu, legacy=False, result=mavlink.MAV_MISSION_ACCEPTED):
         self.legacy, self.result = legacy, result
         self.count, self.items = 0, []
+        self.mission_type = mavlink.MAV_MISSION_TYPE_MISSION  # of the upload under way
         fcu.answers.update({'MISSION_COUNT': self._on_count, 'MISSION_ITEM_INT': self._on_item,
                             'MISSION_ITEM': self._on_item, 'MISSION_REQUEST_LIST': self._on_request_list,
-                            'MISSION_REQUEST_INT': self._on_request})
+                            'MISSION_REQUEST_INT': self._on_request, 'MISSION_CLEAR_ALL': self._on_clear})
+
+    def _on_clear(self, msg):
+        return [BUILD.mission_ack_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, self.result, msg.mission_type)]
 
     def _request(self, seq):
         encode = BUILD.mission_request_encode if self.legacy else BUILD.mission_request_int_encode
-        return encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, seq)
+        return encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, seq, self.mission_type)
 
     def _on_count(self, msg):
-        self.count, self.items = msg.count, []
+        self.count, self.items, self.mission_type = msg.count, [], msg.mission_type
         return [self._request(0)]
 
     def _on_item(self, msg):
         self.items.append(msg)
         if len(self.items) < self.count:
             return [self._request(len(self.items))]
-        return [BUILD.mission_ack_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, self.result)]
+        return [BUILD.mission_ack_encode(1, mavlink.MAV_COMP_ID_UDP_BRIDGE, self.result, self.mission_type)]
 
     def _on_request_list(self, msg):
         """The mission's count; an empty geofence and rally list, as PX4 SITL answers on a fresh start."""
@@ -441,6 +448,27 @@ def test_mission_push_sends_items_as_mission_item_int():
     assert all(item.mission_type == mavlink.MAV_MISSION_TYPE_MISSION for item in fcu.items)
     published = rig.published('~mission/waypoints')[-1]
     assert [wp.command for wp in published.waypoints] == [mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT]
+
+
+def test_geofence_push_uploads_a_fence_as_mavros_s_geofence_plugin():
+    """~geofence/push: the same transfer with mission_type FENCE (mavros's geofence plugin is MissionBase with
+    MAV_MISSION_TYPE_FENCE), published on ~geofence/waypoints; the mission is left alone."""
+    rig = Rig(mission.Mission)
+    fcu = MissionFcu(rig.fcu)
+    circle = Waypoint(frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+                      param1=5.0, x_lat=47.397742, y_long=8.545594)
+    response = rig.call('~geofence/push', WaypointPushRequest(waypoints=[circle]))
+    assert (response.success, response.wp_transfered) == (True, 1)
+    assert rig.fcu.got('MISSION_COUNT')[0].mission_type == mavlink.MAV_MISSION_TYPE_FENCE
+    (item,) = fcu.items
+    assert (item.mission_type, item.command, item.param1, item.x, item.y) == (
+        mavlink.MAV_MISSION_TYPE_FENCE, mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 5.0, 473977420, 85455940)
+    assert [wp.command for wp in rig.published('~geofence/waypoints')[-1].waypoints] == [
+        mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION]
+    assert rig.published('~mission/waypoints')[-1].waypoints == []
+    assert rig.call('~geofence/clear', WaypointClearRequest()).success
+    assert rig.fcu.got('MISSION_CLEAR_ALL')[-1].mission_type == mavlink.MAV_MISSION_TYPE_FENCE
+    assert rig.published('~geofence/waypoints')[-1].waypoints == []
 
 
 def test_mission_push_converts_x_and_y_as_mavros_s_int32_cast(caplog):

@@ -38,11 +38,15 @@ LOCAL_FRAMES = frozenset((mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_FRAME_LOCAL_E
 
 def encode_factor(frame):
     return 1e7 if frame in GLOBAL_FRAMES else 1e4 if frame in LOCAL_FRAMES else 1.0
+
+
 STEP_TIMEOUT_S, STEP_RETRIES = 1.0, 3
 PULL_AFTER_CONNECT_S = 15.0
 # what is pulled after the connection, in mavros's order, with its log prefix and name
 AUTO_PULLS = ((mavlink.MAV_MISSION_TYPE_FENCE, 'GF', 'geofence'), (mavlink.MAV_MISSION_TYPE_RALLY, 'RP', 'rally'),
               (mavlink.MAV_MISSION_TYPE_MISSION, 'WP', 'mission'))
+LOG_PREFIXES = {mission_type: prefix for mission_type, prefix, _ in AUTO_PULLS}
+LIST_NAMES = {mission_type: name for mission_type, _, name in AUTO_PULLS}
 WAIT_SLICE_S = 0.05  # wall seconds between checks of a deadline on the bridge's clock
 TRANSFER_MESSAGES = ('MISSION_COUNT', 'MISSION_ITEM_INT', 'MISSION_ITEM', 'MISSION_REQUEST_INT', 'MISSION_REQUEST',
                      'MISSION_ACK')
@@ -84,10 +88,16 @@ class Mission:
                                                        (mavlink.MAV_MISSION_TYPE_RALLY, 'rallypoint'))}
         # latched, as mavros's waypoint plugin advertises it: a late subscriber hears the last item reached
         self.reached_pub = bridge.publisher('~mission/reached', WaypointReached, latch=True)
-        self.services = [bridge.service('~mission/push', WaypointPush, self._push),
-                         bridge.service('~mission/pull', WaypointPull, self._pull),
-                         bridge.service('~mission/clear', WaypointClear, self._clear),
-                         bridge.service('~mission/set_current', WaypointSetCurrent, self._set_current)]
+        self.services = [bridge.service('~mission/set_current', WaypointSetCurrent, self._set_current)]
+        # push, pull and clear for each list, as mavros's waypoint, geofence and rallypoint plugins (MissionBase
+        # with its mission_type) offer them
+        for mission_type, topic in ((mavlink.MAV_MISSION_TYPE_MISSION, 'mission'),
+                                    (mavlink.MAV_MISSION_TYPE_FENCE, 'geofence'),
+                                    (mavlink.MAV_MISSION_TYPE_RALLY, 'rallypoint')):
+            self.services += [
+                bridge.service('~%s/push' % topic, WaypointPush, lambda req, t=mission_type: self._push(req, t)),
+                bridge.service('~%s/pull' % topic, WaypointPull, lambda req, t=mission_type: self._pull(req, t)),
+                bridge.service('~%s/clear' % topic, WaypointClear, lambda req, t=mission_type: self._clear(req, t))]
         self.current_wanted = None  # (seq, Event) while ~mission/set_current waits for MISSION_CURRENT
         for name in TRANSFER_MESSAGES:
             bridge.on(name, self._to_transfer)
@@ -198,7 +208,7 @@ class Mission:
         self._publish()
         return count
 
-    def _item(self, seq, wp, as_int):
+    def _item(self, seq, wp, as_int, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
         b = self.bridge
         target = (b.target_system, b.target_component)
         floats = {name: self._float32(seq, name, getattr(wp, name))
@@ -208,12 +218,10 @@ class Mission:
             factor = encode_factor(wp.frame)
             x, y = (self._int32(seq, name, getattr(wp, name), factor) for name in ('x_lat', 'y_long'))
             return b.mav.mission_item_int_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
-                                                 int(wp.autocontinue), *params, x, y, floats['z_alt'],
-                                                 mavlink.MAV_MISSION_TYPE_MISSION)
+                                                 int(wp.autocontinue), *params, x, y, floats['z_alt'], mission_type)
         x, y = (self._float32(seq, name, getattr(wp, name)) for name in ('x_lat', 'y_long'))
         return b.mav.mission_item_encode(*target, seq, wp.frame, wp.command, int(wp.is_current),
-                                         int(wp.autocontinue), *params, x, y, floats['z_alt'],
-                                         mavlink.MAV_MISSION_TYPE_MISSION)
+                                         int(wp.autocontinue), *params, x, y, floats['z_alt'], mission_type)
 
     @staticmethod
     def _int32(seq, field, value, factor):
@@ -234,7 +242,7 @@ class Mission:
                           sent)
         return sent
 
-    def _do_push(self, waypoints):
+    def _do_push(self, waypoints, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
         b = self.bridge
         target = (b.target_system, b.target_component)
         sent = set()
@@ -242,7 +250,7 @@ class Mission:
         def accept(msg):
             kind = msg.get_type()
             if kind in ('MISSION_REQUEST_INT', 'MISSION_REQUEST') and 0 <= msg.seq < len(waypoints):
-                b.send(self._item(msg.seq, waypoints[msg.seq], kind == 'MISSION_REQUEST_INT'))
+                b.send(self._item(msg.seq, waypoints[msg.seq], kind == 'MISSION_REQUEST_INT', mission_type))
                 sent.add(msg.seq)
                 return PROGRESS
             if kind == 'MISSION_ACK':
@@ -250,52 +258,63 @@ class Mission:
             return None
         # MISSION_COUNT is repeated only until the FCU asks for an item; then it drives the transfer
         result = self._wait(accept, lambda: None if sent else b.send(b.mav.mission_count_encode(
-            *target, len(waypoints), mavlink.MAV_MISSION_TYPE_MISSION)), 'MISSION_COUNT / items')
+            *target, len(waypoints), mission_type)), 'MISSION_COUNT / items')
         if result != mavlink.MAV_MISSION_ACCEPTED:
-            raise TransferError('FCU refused the mission: MAV_MISSION_RESULT %d' % result)
-        self.waypoints = list(waypoints)
-        self.current_seq = 0
-        self._publish()
+            raise TransferError('FCU refused the %s: MAV_MISSION_RESULT %d' % (LIST_NAMES[mission_type], result))
+        self._stored(mission_type, list(waypoints))
         return len(sent)
 
-    def _do_clear(self):
+    def _stored(self, mission_type, waypoints):
+        """What the FCU now holds, published as mavros does after a push or clear."""
+        if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+            listed = WaypointList()
+            listed.waypoints = waypoints
+            self.other_pubs[mission_type].publish(listed)
+            return
+        self.waypoints = waypoints
+        self.current_seq = 0
+        self._publish()
+
+    def _do_clear(self, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
         b = self.bridge
         target = (b.target_system, b.target_component)
         result = self._wait(lambda m: m.type if m.get_type() == 'MISSION_ACK' else None,
-                            lambda: b.send(b.mav.mission_clear_all_encode(*target, mavlink.MAV_MISSION_TYPE_MISSION)),
+                            lambda: b.send(b.mav.mission_clear_all_encode(*target, mission_type)),
                             'MISSION_CLEAR_ALL')
         if result != mavlink.MAV_MISSION_ACCEPTED:
-            raise TransferError('FCU refused to clear: MAV_MISSION_RESULT %d' % result)
-        self.waypoints, self.current_seq = [], 0
-        self._publish()
+            raise TransferError('FCU refused to clear the %s: MAV_MISSION_RESULT %d'
+                                % (LIST_NAMES[mission_type], result))
+        self._stored(mission_type, [])
 
-    def _push(self, req):
+    def _push(self, req, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
+        prefix = LOG_PREFIXES[mission_type]
         if req.start_index != 0:
-            rospy.logerr('WP: partial push (start_index %d) is not supported by PX4', req.start_index)
+            rospy.logerr('%s: partial push (start_index %d) is not supported by PX4', prefix, req.start_index)
             return WaypointPushResponse(success=False, wp_transfered=0)
         try:
             if not req.waypoints:
-                self._transfer(self._do_clear)
+                self._transfer(self._do_clear, mission_type, mission_type=mission_type)
                 return WaypointPushResponse(success=True, wp_transfered=0)
-            count = self._transfer(self._do_push, list(req.waypoints))
+            count = self._transfer(self._do_push, list(req.waypoints), mission_type, mission_type=mission_type)
             return WaypointPushResponse(success=True, wp_transfered=count)
         except TransferError as err:
-            rospy.logerr('WP: push failed: %s', err)
+            rospy.logerr('%s: push failed: %s', prefix, err)
             return WaypointPushResponse(success=False, wp_transfered=0)
 
-    def _pull(self, _req):
+    def _pull(self, _req, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
         try:
-            return WaypointPullResponse(success=True, wp_received=self._transfer(self._do_pull))
+            count = self._transfer(self._do_pull, mission_type, mission_type=mission_type)
+            return WaypointPullResponse(success=True, wp_received=count)
         except TransferError as err:
-            rospy.logerr('WP: pull failed: %s', err)
+            rospy.logerr('%s: pull failed: %s', LOG_PREFIXES[mission_type], err)
             return WaypointPullResponse(success=False, wp_received=0)
 
-    def _clear(self, _req):
+    def _clear(self, _req, mission_type=mavlink.MAV_MISSION_TYPE_MISSION):
         try:
-            self._transfer(self._do_clear)
+            self._transfer(self._do_clear, mission_type, mission_type=mission_type)
             return WaypointClearResponse(success=True)
         except TransferError as err:
-            rospy.logerr('WP: clear failed: %s', err)
+            rospy.logerr('%s: clear failed: %s', LOG_PREFIXES[mission_type], err)
             return WaypointClearResponse(success=False)
 
     def _set_current(self, req):
