@@ -19,7 +19,7 @@ import rospy
 import rostest
 
 from offboard_py.testing import Failures
-from offboard_py.testing.rostest_common import START_WALL_S, OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import START_WALL_S, OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 
@@ -51,13 +51,16 @@ class RestartsTest(OffboardTestCase):
         # bridge, which may be before that bridge's first state: the failsafe is seen on the ground station's link
         bridge_before = node_pid('/mavros')
         os.kill(bridge_before, signal.SIGKILL)
-        killed = self.gcs.now()
+        killed, killed_ros = self.gcs.now(), now()
 
         def failsafe_seen():
             return next((mode for _, mode, armed in self.gcs.modes(killed) if mode != 'OFFBOARD'), None)
         self.wait_until(failsafe_seen, 30.0, 'the failsafe after the bridge was killed (on the GCS link)', [vehicle],
                         min_wall_s=START_WALL_S)
         rospy.loginfo('bridge killed: the vehicle went to %s', failsafe_seen())
+        # what the killed bridge last said (OFFBOARD, armed, 2 m) stays until the respawned one speaks
+        self.wait_until(lambda: any(s.connected for _, s in vehicle.states_since(killed_ros)), 30.0,
+                        'the respawned bridge connected', [vehicle], min_wall_s=START_WALL_S)
         self.wait_back_at_2m(vehicle, 'the bridge respawned')
         self.assertNotEqual(node_pid('/mavros'), bridge_before, 'the bridge was not respawned')
         self.assertEqual(node_pid('/offb_node_py'), node_before, 'the node must not be restarted')
