@@ -63,9 +63,11 @@ class LinkCutTest(OffboardTestCase):
         # 2. both ways for 2 s, shorter than conn/timeout: never reported disconnected
         self.pause(3.0)
         start = self.cut(2.0)
-        self.pause(2.0 + HEARTBEAT_PERIOD_S + 0.5)
+        # until the first HEARTBEAT after the cut (up to a period after it), however late this process reads it
+        self.wait_until(lambda: any(s.header.stamp.to_sec() > start + 2.0 for _, s in vehicle.states_since(start)),
+                        2.0 + HEARTBEAT_PERIOD_S + 3.0, 'a state after the 2 s cut', [vehicle])
         seen = vehicle.states_since(start)
-        self.assertTrue(seen and all(s.connected for _, s in seen), 'disconnected by a 2 s cut (conn/timeout %.0f s)'
+        self.assertTrue(all(s.connected for _, s in seen), 'disconnected by a 2 s cut (conn/timeout %.0f s)'
                         % conn_timeout_s)
         self.wait_back_at_2m(vehicle, 'a 2 s cut both ways', 40.0)
 
