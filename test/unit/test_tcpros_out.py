@@ -1,7 +1,7 @@
-"""The bridge's subscriber connections (bridge/tcpros_out.py) on real rospy publishers and real TCP
-sockets on loopback: rospy's own publish path, a subscriber at the other end of a socket that
-reads, reads late or is gone. No ROS master is needed: a connection is handed to the publisher as
-rospy's TCPROS server hands it one.
+"""The bridge's publisher (bridge/tcpros_out.py) on real rospy topics and real TCP sockets on
+loopback: a subscriber at the other end of a socket that reads, reads late or is gone. No ROS master
+is needed: a connection is handed to the topic as rospy's TCPROS server hands it one. rospy itself
+stays as installed (a test below holds that).
 """
 
 import socket
@@ -10,7 +10,6 @@ import threading
 import time
 
 import pytest
-import rospy
 from rospy.impl.tcpros_base import TCPROSTransport
 from rospy.impl.tcpros_pubsub import TCPROSPub
 from std_msgs.msg import String
@@ -37,7 +36,7 @@ def _connect(publisher, topic, buffer_bytes=None):
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, buffer_bytes)
     transport = TCPROSTransport(TCPROSPub(topic, String), topic)
     transport.set_socket(sock, '/reader')
-    publisher.impl.add_connection(transport)
+    publisher.rospy_publisher.impl.add_connection(transport)  # what rospy's TCPROS server does
     return reader, transport
 
 
@@ -65,28 +64,33 @@ class _Subscriber:
 
 
 def _publish(publisher, text):
-    """What rospy.Publisher.publish does once the node is initialised (this test runs without one)."""
-    publisher.impl.acquire()
-    try:
-        publisher.impl.publish(String(text))
-    finally:
-        publisher.impl.release()
+    publisher.publish(String(text))
 
 
 @pytest.fixture
 def publisher(request):
     topic = '/tcpros_out_%s' % request.node.name
     latch = 'latch' in request.node.name
-    made = rospy.Publisher(topic, String, queue_size=3, latch=latch)
-    assert tcpros_out.install(made, 3, tcpros_out.Flusher(poll_ms=10)), 'rospy\'s publisher has no hook here'
+    made = tcpros_out.Publisher(topic, String, 3, tcpros_out.Flusher(poll_ms=10), latch=latch)
     yield made
     made.unregister()
 
 
-def test_messages_arrive_whole_and_in_order_through_the_hooked_connection(publisher):
+def test_rospy_stays_as_installed(publisher):
+    """Nothing of rospy is replaced: its topic wraps no connection and keeps its own methods."""
+    impl = publisher.rospy_publisher.impl
+    assert impl.queue_size is None
+    assert 'add_connection' not in vars(impl) and 'publish' not in vars(impl)
+    assert type(impl).add_connection.__module__ == 'rospy.topics'
+    reader, _transport = _connect(publisher, publisher.resolved_name)
+    with reader:
+        assert type(impl.connections[0]).__name__ == 'TCPROSTransport'
+
+
+def test_messages_arrive_whole_and_in_order_through_the_unblocked_writer(publisher):
     reader, transport = _connect(publisher, publisher.resolved_name)
     with reader:
-        assert isinstance(publisher.impl.connections[0], tcpros_out.UnblockedConnection)
+        assert isinstance(publisher.writers()[0], tcpros_out.UnblockedConnection)
         for i in range(20):
             _publish(publisher, 'message %d' % i)
         assert _Subscriber(reader).read(20) == ['message %d' % i for i in range(20)]
@@ -120,7 +124,7 @@ def test_a_subscriber_that_stops_reading_never_blocks_the_publisher(publisher):
         threading.Thread(target=publish_all, daemon=True).start()
         assert done.wait(BOUND_S), 'publish blocked on a subscriber that does not read (%d of %d out)' % (
             len(took), count)
-        connection = publisher.impl.connections[0]
+        connection = publisher.writers()[0]
         assert connection.dropped > 0, 'nothing was dropped although the subscriber read nothing'
         subscriber = _Subscriber(reader)
         received = []
@@ -141,14 +145,14 @@ def test_a_subscriber_that_is_gone_is_dropped_from_the_topic(publisher):
     reader.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack('ii', 1, 0))  # close with a reset
     reader.close()
     deadline = time.monotonic() + BOUND_S
-    while publisher.impl.connections:
+    while publisher.rospy_publisher.impl.connections:
         assert time.monotonic() < deadline, 'the dead connection is still on the topic'
         _publish(publisher, 'to nobody')  # must not raise
         time.sleep(0.01)
     assert transport.done
 
 
-def test_a_socket_with_a_timeout_keeps_rospys_queue(publisher):
+def test_a_socket_with_a_timeout_gets_rospys_queue(publisher):
     """Python waits for room before a send on a socket with a timeout, MSG_DONTWAIT or not: such a
     connection is left to rospy's own writer thread, which may wait."""
     with socket.socket() as server:
@@ -159,8 +163,24 @@ def test_a_socket_with_a_timeout_keeps_rospys_queue(publisher):
     sock.settimeout(1.0)
     transport = TCPROSTransport(TCPROSPub(publisher.resolved_name, String), publisher.resolved_name)
     transport.set_socket(sock, '/reader')
-    publisher.impl.add_connection(transport)
+    publisher.rospy_publisher.impl.add_connection(transport)
     with reader:
-        assert not isinstance(publisher.impl.connections[0], tcpros_out.UnblockedConnection)
+        assert type(publisher.writers()[0]).__name__ == 'QueuedConnection'
         _publish(publisher, 'through rospy')
         assert _Subscriber(reader).read(1) == ['through rospy']
+
+
+def test_no_module_assigns_over_a_library_method():
+    """No source of the package replaces a method of rospy's or pymavlink's (as bridge/tcpros_out.py once
+    replaced a rospy topic's add_connection, and dialect.py pymavlink's _pack): an assignment to one of
+    their method names on any object is refused here, naming the line."""
+    import pathlib
+    import re
+    methods = ('add_connection', 'remove_connection', 'publish', 'write_data', '_pack', 'pack', 'check_signature',
+               'decode', 'parse_char', 'parse_buffer', 'send', 'recv_msg')
+    assignment = re.compile(r'\.(%s)\s*=(?!=)' % '|'.join(methods))
+    root = pathlib.Path(__file__).resolve().parents[2] / 'src' / 'offboard_py'
+    found = ['%s:%d: %s' % (path.relative_to(root), number, line.strip())
+             for path in sorted(root.rglob('*.py'))
+             for number, line in enumerate(path.read_text().splitlines(), 1) if assignment.search(line)]
+    assert not found, 'a library method replaced:\n' + '\n'.join(found)

@@ -49,10 +49,8 @@ class RospyEndpoints:
     def publisher(self, name, data_class, queue_size, latch, on_subscribers):
         """on_subscribers() is called when the topic gains or loses a subscriber. A subscriber's
         messages are written in the publishing thread, never blocking it (tcpros_out)."""
-        publisher = rospy.Publisher(name, data_class, queue_size=queue_size, latch=latch,
+        return tcpros_out.Publisher(name, data_class, queue_size, self.flusher, latch=latch,
                                     subscriber_listener=_SubscribersMoved(on_subscribers))
-        tcpros_out.install(publisher, queue_size, self.flusher)
-        return publisher
 
     @staticmethod
     def subscriber(name, data_class, callback):

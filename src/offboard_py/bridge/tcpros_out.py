@@ -8,27 +8,32 @@ was most of its cost with every topic subscribed (13.6 % of a core against real 
 the same PX4 replay: bench/results/2026-11-25-mavros-side-by-side.md). Publishing without a queue
 (queue_size=None) writes in the caller's thread but blocks it on a subscriber that stops reading.
 
-`UnblockedConnection` takes the place of QueuedConnection, as roscpp's connections do: a message
-is written at once, in the publishing thread, without blocking (MSG_DONTWAIT); what the kernel
-cannot take (a subscriber that reads slowly or not at all) waits in that connection's queue of
-queue_size messages, the oldest dropped first, as rospy's and roscpp's queues drop, and one
-thread (`Flusher`) for all connections sends it when the socket can take it. A message is never
-cut: a partly sent one is finished before the next.
-
-rospy has no public hook for this: `install(publisher, queue_size)` replaces the wrapper at the one
-place rospy chooses it (`_PublisherImpl.add_connection` wraps when its queue_size is set), and
-leaves rospy's own queue in place when that place is not as rospy 1.15.15 (Debian 12) has it.
+`Publisher` is the bridge's own publisher, which its plugins call: rospy's Publisher (made without a
+queue, so rospy hands over its subscribers' transports as they are) registers the topic, accepts the
+subscribers and sends a latched topic's last message to a new one; `Publisher.publish` serialises a
+message once, as rospy does, and writes it to each subscriber through an `UnblockedConnection` of its
+own, as roscpp's connections write: at once, in the publishing thread, without blocking
+(MSG_DONTWAIT); what the kernel cannot take (a subscriber that reads slowly or not at all) waits in
+that connection's queue of queue_size messages, the oldest dropped first, as rospy's and roscpp's
+queues drop, and one thread (`Flusher`) for all connections sends it when the socket can take it. A
+message is never cut: a partly sent one is finished before the next. Nothing of rospy is replaced:
+rospy's own publishers (a user's, in another process or this one) stay as rospy makes them.
 """
 
 import collections
 import errno
+import io
 import logging
 import select
 import socket
 import threading
+import warnings
 
-from rospy.exceptions import TransportTerminated
+import genpy
+import rospy
+from rospy.exceptions import ROSSerializationException, TransportTerminated
 from rospy.impl.tcpros_pubsub import QueuedConnection
+from rospy.msg import serialize_message
 
 _log = logging.getLogger(__name__)
 
@@ -72,8 +77,8 @@ class Flusher:
                     by_fd[fd].flush()
                 except Exception:  # this thread serves every backed-up subscriber: it must outlive one
                     _log.exception('subscriber %s: sending what waited failed; closing the connection',
-                                   by_fd[fd].endpoint_id)
-                    by_fd[fd].close()
+                                   by_fd[fd].transport.endpoint_id)
+                    by_fd[fd].transport.close()
             for connection in connections:
                 connection.forget_if_idle(self._forget)
 
@@ -84,14 +89,13 @@ class Flusher:
 
 
 class UnblockedConnection:
-    """A publisher's TCPROS transport that never blocks the publishing thread (see the module doc).
-
-    Behaves as the transport for everything else (rospy reads its endpoint_id, fileno, stats and
-    cleanup callback through it, as through QueuedConnection)."""
+    """Writes one subscriber's TCPROS transport (`transport`) without ever blocking the publishing
+    thread (see the module doc); the transport's stats count what it sent."""
 
     def __init__(self, connection, queue_size, flusher):
         """`queue_size`: messages held for a subscriber the kernel's buffer is full for; 0 is no limit."""
         self._connection = connection
+        self.transport = connection
         self._socket = connection.socket
         self._queue_size = queue_size
         self._flusher = flusher
@@ -99,11 +103,6 @@ class UnblockedConnection:
         self._pending = collections.deque()  # messages not yet sent, oldest first
         self._head_sent = 0  # bytes of the oldest pending message already sent
         self.dropped = 0  # messages dropped because the queue was full
-
-    def __getattr__(self, name):
-        if name.startswith('__'):
-            raise AttributeError(name)
-        return getattr(self._connection, name)
 
     def write_data(self, data):
         with self._lock:
@@ -170,26 +169,85 @@ class UnblockedConnection:
         return sent
 
 
-def install(publisher, queue_size, flusher):
-    """Give `publisher`'s future subscriber connections an UnblockedConnection holding `queue_size`
-    messages instead of rospy's QueuedConnection. Publishers of one topic in one process share
-    rospy's topic object; each call sets it again, as rospy's own constructor does. Returns False
-    (rospy's queue stays) where rospy's publisher is not shaped as this expects."""
-    impl = getattr(publisher, 'impl', None)
-    add_connection = getattr(type(impl), 'add_connection', None)
-    if add_connection is None or not hasattr(impl, 'queue_size'):
-        _log.warning('rospy publisher %s: no add_connection to hook: rospy\'s per-connection threads stay',
-                     getattr(publisher, 'name', publisher))
-        return False
+class Publisher:
+    """A topic published through UnblockedConnections (see the module doc). Takes rospy.Publisher's
+    arguments but for queue_size, which is each subscriber's queue here."""
 
-    def add_unblocked_connection(connection):
+    def __init__(self, name, data_class, queue_size, flusher, latch=False, subscriber_listener=None):
+        """`queue_size`: messages held for a subscriber the kernel's buffer is full for; 0 is no limit."""
+        with warnings.catch_warnings():
+            # rospy advises a queue_size: the queue is this module's, one a subscriber
+            warnings.simplefilter('ignore', SyntaxWarning)
+            self.rospy_publisher = rospy.Publisher(name, data_class, queue_size=None, latch=latch,
+                                                   subscriber_listener=subscriber_listener)
+        self.name = self.rospy_publisher.name
+        self.resolved_name = self.rospy_publisher.resolved_name
+        self.data_class = data_class
+        self.queue_size = queue_size
+        self._flusher = flusher
+        self._buffer = io.BytesIO()
+        self._seq = 0
+        self._connections = []  # rospy's list of this topic's transports when the writers were made
+        self._writers = []
+
+    def get_num_connections(self):
+        return self.rospy_publisher.get_num_connections()
+
+    def unregister(self):
+        self.rospy_publisher.unregister()
+
+    def writers(self):
+        """Each subscriber's writer now (an UnblockedConnection; rospy's QueuedConnection for a socket
+        with a timeout, on which Python would wait for room whatever the flags)."""
+        impl = self.rospy_publisher.impl
+        if impl is None:
+            return []
+        connections = impl.connections  # rospy replaces the list when it adds or drops one
+        if connections is not self._connections:
+            kept = {id(writer.transport): writer for writer in self._writers}
+            self._writers = [kept.get(id(connection)) or self._writer(connection) for connection in connections]
+            self._connections = connections
+        return self._writers
+
+    def _writer(self, connection):
         sock = getattr(connection, 'socket', None)
-        # not a socket, or one with a timeout (Python then waits for room before it sends, whatever the
-        # flags): as rospy would
         if sock is None or sock.gettimeout() is not None:
-            return add_connection(impl, QueuedConnection(connection, queue_size))
-        return add_connection(impl, UnblockedConnection(connection, queue_size, flusher))
+            writer = QueuedConnection(connection, self.queue_size)
+            writer.transport = connection
+            return writer
+        return UnblockedConnection(connection, self.queue_size, self._flusher)
 
-    impl.queue_size = None  # rospy wraps no more: the connection comes wrapped
-    impl.add_connection = add_unblocked_connection
-    return True
+    def publish(self, message):
+        """Write `message` to every subscriber now, never waiting for one; False when there is none.
+        A latched topic keeps it for subscribers to come (rospy sends it to them)."""
+        impl = self.rospy_publisher.impl
+        if impl is None or impl.closed:
+            if rospy.is_shutdown():
+                return False
+            raise rospy.ROSException('publish() to a closed topic %s' % self.resolved_name)
+        dead = []
+        impl.acquire()  # rospy's own lock for the topic: a new subscriber's latched message is not interleaved
+        try:
+            if impl.is_latch:
+                impl.latch = message
+            writers = self.writers()
+            if not writers:
+                return False
+            self._seq += 1
+            self._buffer.seek(0)
+            self._buffer.truncate(0)
+            try:
+                serialize_message(self._buffer, self._seq, message)
+            except genpy.SerializationError as err:
+                raise ROSSerializationException('%s: %s' % (self.resolved_name, err)) from err
+            data = self._buffer.getvalue()
+            for writer in writers:
+                try:
+                    writer.write_data(data)
+                except TransportTerminated:
+                    dead.append(writer.transport)
+        finally:
+            impl.release()
+        for connection in dead:
+            connection.close()  # rospy then drops it from the topic
+        return True
