@@ -1,4 +1,4 @@
-"""The bridge's publisher (bridge/tcpros_out.py) on real rospy topics and real TCP sockets on
+"""The bridge's publisher (tcpros_out.py) on real rospy topics and real TCP sockets on
 loopback: a subscriber at the other end of a socket that reads, reads late or is gone. No ROS master
 is needed: a connection is handed to the topic as rospy's TCPROS server hands it one. rospy itself
 stays as installed (a test below holds that).
@@ -14,7 +14,7 @@ from rospy.impl.tcpros_base import TCPROSTransport
 from rospy.impl.tcpros_pubsub import TCPROSPub
 from std_msgs.msg import String
 
-from offboard_py.bridge import tcpros_out
+from offboard_py import tcpros_out
 
 BOUND_S = 5.0
 

@@ -11,7 +11,7 @@ import time
 
 import rospy
 
-from offboard_py.bridge import tcpros_out
+from offboard_py import tcpros_out
 from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import check_pymavlink_version

@@ -1,4 +1,4 @@
-"""The bridge's outgoing TCPROS connections without a thread each: what roscpp does, in rospy.
+"""Outgoing TCPROS connections without a thread each (the bridge's topics, /clock): what roscpp does, in rospy.
 
 rospy gives a publisher created with a queue_size one writer thread per subscriber connection
 (`rospy.impl.tcpros_pubsub.QueuedConnection`): every message to every subscriber takes a lock, wakes
@@ -8,7 +8,7 @@ was most of its cost with every topic subscribed (13.6 % of a core against real 
 the same PX4 replay: bench/results/2026-11-25-mavros-side-by-side.md). Publishing without a queue
 (queue_size=None) writes in the caller's thread but blocks it on a subscriber that stops reading.
 
-`Publisher` is the bridge's own publisher, which its plugins call: rospy's Publisher (made without a
+`Publisher` is the package's own publisher, which the bridge's plugins and the /clock node call: rospy's Publisher (made without a
 queue, so rospy hands over its subscribers' transports as they are) registers the topic, accepts the
 subscribers and sends a latched topic's last message to a new one; `Publisher.publish` serialises a
 message once, as rospy does, and writes it to each subscriber through an `UnblockedConnection` of its
