@@ -7,7 +7,10 @@ the bridge's timeouts, offb_node's 5 s request spacing) runs on the vehicles' se
 sim_clock serves every vehicle of a ROS master: they compute the same clock.
 
 Ticks are every `~period` simulated seconds (default 0.01 s: 100 Hz of simulated time, what
-gazebo_ros publishes), on a grid of that period, never backwards.
+gazebo_ros publishes at pub_clock_frequency 100), on a grid of that period, never backwards.
+sim_clock.launch makes it 0.01 s x the speed: 100 ticks a second of wall time at any speed. Every
+node with /use_sim_time takes each tick in Python (about 100 us of CPU), so at 5x a tick every
+0.01 s of simulated time cost a scenario's nodes together a third of a core more.
 
 The guard: a tick published more than `~max_lag` simulated seconds late means this
 machine cannot keep the ROS side up with the vehicles at this speed; the node logs an error
@@ -22,6 +25,7 @@ import time
 import rospy
 from rosgraph_msgs.msg import Clock
 
+from offboard_py import tcpros_out
 from offboard_py.master import await_master_from_argv
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
 
@@ -89,7 +93,9 @@ def main():
         rospy.logwarn('sim_clock: fault_lag %g s: /clock runs that far behind the vehicles (a test fault)',
                       fault_lag_s)
     ticks = ClockTicks(period_s, clock.now() - fault_lag_s)
-    publisher = rospy.Publisher('/clock', Clock, queue_size=10)
+    # every node with /use_sim_time subscribes: written to each at once, without a thread a subscriber
+    # (at 5x, 500 ticks a second: rospy's queue cost this node a quarter of a core with two subscribers)
+    publisher = tcpros_out.Publisher('/clock', Clock, 10, tcpros_out.Flusher())
     rospy.set_param(LAG_PARAM, 0.0)
     rospy.loginfo('sim_clock: /clock at %gx real time, a tick every %g s of simulated time', speed, period_s)
     message = Clock()
