@@ -8,10 +8,11 @@ on an instance that is free at the time, at OFFBOARD_PY_SPEED, its client on the
 clock.
 """
 
-from offboard_py.testing.tiers import run_elsewhere
+from offboard_py.testing.tiers import run_elsewhere, run_shard
 from offboard_py.testing.pytest_plugin import pytest_runtest_makereport, sim_px4, start_sim  # noqa: F401 (fixtures)
 
 
 def pytest_collection_modifyitems(config, items):
-    """Under ./run test this tier runs beside the scenarios (offboard_py.testing.tiers)."""
-    run_elsewhere('sim', config, items, 'test-sim.log')
+    """Under ./run test this tier runs beside the scenarios, in shards side by side (offboard_py.testing.tiers)."""
+    run_elsewhere('sim', config, items, 'test-sim-*.log')
+    run_shard(config, items)
