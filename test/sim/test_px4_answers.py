@@ -4,6 +4,7 @@ change, PROTOCOL_VERSION and its ACK, LINK_NODE_STATUS.messages_lost, and what H
 SYS_STATUS say around a disarm. Seconds are simulated ones (the client's clock, conftest).
 """
 
+import json
 import os
 
 from offboard_py.dialect import mavlink
@@ -11,6 +12,8 @@ from offboard_py.testing import measured_tables
 from offboard_py.testing.sim_client import ACCEPTED, DENIED, TEMPORARILY_REJECTED
 
 FAST = ('--ready-delay', '1')
+CENSUS_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'reference',
+                           'px4-sitl-gcs-census.json')
 MEASURED = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'reference', 'px4-sitl-measured.md')
 PREARM, LOGGING = mavlink.MAV_SYS_STATUS_PREARM_CHECK, mavlink.MAV_SYS_STATUS_LOGGING
 # section 4: two COMMAND_ACK(176) 1-8 ms apart; PROTOCOL_VERSION's ACK about 4 ms after it. Over
@@ -21,6 +24,8 @@ LIBRARY_HASH = bytes.fromhex('6521d1aee97ea451')  # PROTOCOL_VERSION.library_ver
 # section 6: the logger's bit left 2.2 s after a disarm 0.93 s after the arm (a log of its own)
 DISARM_AFTER_ARM_S, LOGGER_GONE_S = 0.93, 2.2
 TOLERANCE = 0.10
+with open(CENSUS_FILE) as _f:
+    CENSUS = json.load(_f)
 
 
 def recorded_available_modes():
@@ -68,11 +73,18 @@ def test_available_modes_and_current_mode_as_px4_sitl(start_sim):
     modes, result = request_available_modes(client, 27)
     assert (modes, result) == ([], DENIED)
 
-    # CURRENT_MODE at 0.5 Hz: AUTO.LOITER on the ground, then OFFBOARD
+    # CURRENT_MODE at PX4's rate (the GCS link's census): AUTO.LOITER on the ground, then OFFBOARD. The rate is
+    # read from the spacing of the messages (a count in a window counts one more when a datagram is late
+    # on a loaded machine)
+    rate_hz = CENSUS['rates_hz']['CURRENT_MODE']
     start = len(client.history)
-    client.sleep(4.5)
-    current = [m for _, m in since(client, start, 'CURRENT_MODE')]
-    assert len(current) == 2, '%d CURRENT_MODE in 4.5 s (PX4: 0.5 Hz)' % len(current)
+    client.sleep(3.5 / rate_hz)
+    stamped = since(client, start, 'CURRENT_MODE')
+    gaps = sorted(b[0] - a[0] for a, b in zip(stamped, stamped[1:]))
+    assert len(stamped) >= 3, '%d CURRENT_MODE in %.1f s (PX4: %g Hz)' % (len(stamped), 3.5 / rate_hz, rate_hz)
+    assert abs(gaps[len(gaps) // 2] * rate_hz - 1.0) < 0.15, \
+        'CURRENT_MODE %.2f s apart (median of %s), PX4 %g Hz' % (gaps[len(gaps) // 2], gaps, rate_hz)
+    current = [m for _, m in stamped]
     assert {(m.standard_mode, m.custom_mode, m.intended_custom_mode) for m in current} == {(0, 0x03040000, 0x03040000)}
     client.start_stream(down=0.0)
     client.sleep(0.3)
