@@ -1,7 +1,7 @@
-"""The bridge's publisher (tcpros_out.py) on real rospy topics and real TCP sockets on
-loopback: a subscriber at the other end of a socket that reads, reads late or is gone. No ROS master
-is needed: a connection is handed to the topic as rospy's TCPROS server hands it one. rospy itself
-stays as installed (a test below holds that).
+"""The package's publisher (tcpros_out.py: the bridge's topics, /clock) on real rospy topics and real
+TCP sockets on loopback: a subscriber at the other end of a socket that reads, reads late or is gone.
+No ROS master is needed: a connection is handed to the topic as rospy's TCPROS server hands it one.
+rospy itself stays as installed (a test below holds that).
 """
 
 import socket
