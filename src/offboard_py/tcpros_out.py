@@ -1,4 +1,4 @@
-"""Outgoing TCPROS connections without a thread each (the bridge's topics, /clock): what roscpp does, in rospy.
+"""Outgoing TCPROS connections without a thread each (the bridge's topics, /clock), as roscpp writes.
 
 rospy gives a publisher created with a queue_size one writer thread per subscriber connection
 (`rospy.impl.tcpros_pubsub.QueuedConnection`): every message to every subscriber takes a lock, wakes
@@ -8,11 +8,11 @@ was most of its cost with every topic subscribed (13.6 % of a core against real 
 the same PX4 replay: bench/results/2026-11-25-mavros-side-by-side.md). Publishing without a queue
 (queue_size=None) writes in the caller's thread but blocks it on a subscriber that stops reading.
 
-`Publisher` is the package's own publisher, which the bridge's plugins and the /clock node call: rospy's Publisher (made without a
-queue, so rospy hands over its subscribers' transports as they are) registers the topic, accepts the
-subscribers and sends a latched topic's last message to a new one; `Publisher.publish` serialises a
-message once, as rospy does, and writes it to each subscriber through an `UnblockedConnection` of its
-own, as roscpp's connections write: at once, in the publishing thread, without blocking
+`Publisher` is the package's own publisher, which the bridge's plugins and the /clock node call:
+rospy's Publisher (made without a queue, so rospy hands over its subscribers' transports as they are)
+registers the topic, accepts the subscribers and sends a latched topic's last message to a new one;
+`Publisher.publish` serialises a message once, as rospy does, and writes it to each subscriber through
+an `UnblockedConnection` of its own, as roscpp's connections write: at once, in the publishing thread, without blocking
 (MSG_DONTWAIT); what the kernel cannot take (a subscriber that reads slowly or not at all) waits in
 that connection's queue of queue_size messages, the oldest dropped first, as rospy's and roscpp's
 queues drop, and one thread (`Flusher`) for all connections sends it when the socket can take it. A
