@@ -94,7 +94,6 @@ class UnblockedConnection:
 
     def __init__(self, connection, queue_size, flusher):
         """`queue_size`: messages held for a subscriber the kernel's buffer is full for; 0 is no limit."""
-        self._connection = connection
         self.transport = connection
         self._socket = connection.socket
         self._queue_size = queue_size
@@ -106,7 +105,7 @@ class UnblockedConnection:
 
     def write_data(self, data):
         with self._lock:
-            if self._connection.done:
+            if self.transport.done:
                 raise TransportTerminated('connection closed')
             if self._pending:
                 self._enqueue(data)
@@ -122,7 +121,7 @@ class UnblockedConnection:
         """Send what is pending until the kernel takes no more (the flusher's thread)."""
         with self._lock:
             try:
-                while self._pending and not self._connection.done:
+                while self._pending and not self.transport.done:
                     data = self._pending[0]
                     sent = self._send(memoryview(data)[self._head_sent:])
                     self._head_sent += sent
@@ -135,11 +134,11 @@ class UnblockedConnection:
 
     def socket_fd(self):
         """The socket's descriptor, -1 once closed."""
-        return -1 if self._connection.done else self._socket.fileno()
+        return -1 if self.transport.done else self._socket.fileno()
 
     def forget_if_idle(self, forget):
         with self._lock:
-            if not self._pending or self._connection.done:
+            if not self._pending or self.transport.done:
                 self._pending.clear()
                 forget(self)
 
@@ -160,12 +159,12 @@ class UnblockedConnection:
         except (BlockingIOError, InterruptedError):
             return 0
         except OSError as err:
-            _log.debug('subscriber %s: %s', self._connection.endpoint_id, err)
-            self._connection.close()
+            _log.debug('subscriber %s: %s', self.transport.endpoint_id, err)
+            self.transport.close()
             raise TransportTerminated('%s: %s' % (errno.errorcode.get(err.errno, err.errno), err)) from err
-        self._connection.stat_bytes += sent
+        self.transport.stat_bytes += sent
         if sent == len(data):
-            self._connection.stat_num_msg += 1
+            self.transport.stat_num_msg += 1
         return sent
 
 
@@ -182,7 +181,6 @@ class Publisher:
                                                    subscriber_listener=subscriber_listener)
         self.name = self.rospy_publisher.name
         self.resolved_name = self.rospy_publisher.resolved_name
-        self.data_class = data_class
         self.queue_size = queue_size
         self._flusher = flusher
         self._buffer = io.BytesIO()
