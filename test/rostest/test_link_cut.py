@@ -54,7 +54,7 @@ class LinkCutTest(OffboardTestCase):
                         'leaving OFFBOARD without setpoints', [vehicle])
         left = next(s.header.stamp.to_sec() for t, s in vehicle.states_since(start) if s.mode != 'OFFBOARD')
         self.assertGreaterEqual(left - start, loss_s - 0.05, 'failsafe before COM_OF_LOSS_T')
-        self.assertLessEqual(left - start, loss_s + HEARTBEAT_PERIOD_S + 1.0, 'failsafe late')
+        self.assertLessEqual(left - start, loss_s + HEARTBEAT_PERIOD_S + 1.0 + self.late_s(), 'failsafe late')
         self.assertIn(vehicle.state.mode, ('AUTO.RTL', 'AUTO.LAND', 'AUTO.LOITER'))
         rospy.loginfo('setpoints cut: %s after %.2f s', vehicle.state.mode, left - start)
         self.assertTrue(all(s.connected for _, s in vehicle.states_since(start)))
@@ -81,7 +81,7 @@ class LinkCutTest(OffboardTestCase):
         self.wait_until(lambda: not vehicle.state.connected, conn_timeout_s + 2.0, 'disconnected', [vehicle])
         lost = next(s.header.stamp.to_sec() for t, s in vehicle.states_since(start) if not s.connected)
         self.assertGreaterEqual(lost - last_heartbeat, conn_timeout_s - 0.1, 'disconnected before conn/timeout')
-        self.assertLessEqual(lost - last_heartbeat, conn_timeout_s + 1.0, 'disconnected late')
+        self.assertLessEqual(lost - last_heartbeat, conn_timeout_s + 1.0 + self.late_s(), 'disconnected late')
         self.assertFalse(vehicle.state.armed or vehicle.state.mode, 'state not reset on disconnection: %s'
                          % vehicle.describe())
         rospy.loginfo('%.0f s cut: disconnected %.2f s after the last heartbeat', LONG_CUT_S, lost - last_heartbeat)

@@ -132,12 +132,12 @@ class MissionTest(OffboardTestCase):
                         'AUTO.MISSION and armed from the arm to the landing: %r'
                         % [(round(t - armed_s, 2), mode, armed) for t, mode, armed in flight])
 
-        disarm_by = LANDED_TO_DISARMED_S * (1.0 + WIDEN) + STATE_PERIOD_S
+        disarm_by = LANDED_TO_DISARMED_S * (1.0 + WIDEN) + STATE_PERIOD_S + self.late_s()
         self.wait_until(lambda: not vehicle.state.armed, disarm_by + 1.0, 'disarm after the landing', [vehicle])
         disarmed_s = next(t for t, s in vehicle.states_since(armed_s) if not s.armed)
         self.assertLessEqual(disarmed_s - landed_s, disarm_by, 'disarmed %.2f s after the landing; PX4 %.2f s at most, '
-                             'allowed %.2f s with a state period' % (disarmed_s - landed_s, LANDED_TO_DISARMED_S,
-                                                                     disarm_by))
+                             'allowed %.2f s with a state period and a busy machine'
+                             % (disarmed_s - landed_s, LANDED_TO_DISARMED_S, disarm_by))
         rospy.loginfo('disarmed %.2f s after the landing (PX4 0.02-%.2f s)', disarmed_s - landed_s,
                       LANDED_TO_DISARMED_S)
 

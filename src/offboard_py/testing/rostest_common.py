@@ -29,10 +29,18 @@ CLOCK_START_TIMEOUT_S = 30.0  # wall seconds for the first /clock in simulated t
 START_WALL_S = 15.0  # wall seconds a connection wait allows at least: nodes start in wall time
 MAX_CLOCK_LAG_S = 0.5  # simulated seconds the ROS side may trail the vehicles (COM_OF_LOSS_T is 1 s)
 CATCH_UP_WALL_S = 0.25  # wall seconds a lag over that may take to go (a stall of this process, not a backlog)
+# Wall seconds a process of a scenario (the simulator, the bridge, this node) may wait for a CPU on a busy
+# 2-core machine: CI's 5x run saw a Hold 1.25 simulated seconds past its bound (0.25 s of wall time)
+BUSY_WALL_S = 0.5
 
 
 def _sim_time():
     return rospy.get_param('/use_sim_time', False) is True
+
+
+def speed():
+    """Simulated seconds per wall second: sim_clock's speed in simulated time, else 1."""
+    return float(rospy.get_param('/sim_clock/speed', 1.0)) if _sim_time() else 1.0
 
 
 def now():
@@ -54,7 +62,7 @@ class ClockGuard:
     offboard_py.simtime) in simulated time; 0 in real time."""
 
     def __init__(self):
-        self.speed = float(rospy.get_param('/sim_clock/speed', 1.0)) if _sim_time() else 1.0
+        self.speed = speed()
         self.worst_s = 0.0
         self.stalls = 0  # lags over MAX_CLOCK_LAG_S that went within CATCH_UP_WALL_S
 
@@ -186,6 +194,13 @@ class OffboardTestCase(unittest.TestCase):
         if problem:
             self.fail(problem)
 
+    def late_s(self):
+        """How much later (simulated s) than the vehicle made a change a busy machine may let this node see it:
+        BUSY_WALL_S at the scenario's speed (at 5x a 0.1 s wait for a CPU is half a simulated second). The
+        upper bounds of what a scenario times add it; the simulated PX4's own timing is held to the tenth
+        offline on a clock of its own (test/unit/test_sim_failsafes.py) and beside real PX4's in bench/results."""
+        return BUSY_WALL_S * speed()
+
     def pause(self, duration_s):
         """Let duration_s of ROS time pass, watching the clock guard."""
         end = now() + duration_s
@@ -299,7 +314,8 @@ class OffboardTestCase(unittest.TestCase):
         to stop): the vehicle leaves OFFBOARD not before loss_timeout_s (PX4's COM_OF_LOSS_T, 1 s
         in PX4 and in the simulator) after the last setpoint the node sent on
         setpoint_position/local, and not after loss_timeout_s + slack_s + state_period_s (mavros
-        publishes the mode with each HEARTBEAT, 1 Hz, so it tells of a change up to a period late).
+        publishes the mode with each HEARTBEAT, 1 Hz, so it tells of a change up to a period late)
+        + late_s() (a busy machine).
         Waits at most timeout_s; returns (delay_s, mode): from the last setpoint to the first state
         out of OFFBOARD, and that mode (AUTO.RTL without RC, as PX4's NAV_RCL_ACT)."""
         def left_offboard():
@@ -315,10 +331,11 @@ class OffboardTestCase(unittest.TestCase):
                                 'left OFFBOARD for %s %.2f s after the last setpoint, before COM_OF_LOSS_T %.1f s: '
                                 'the failsafe was not the offboard loss (%s)' % (mode, delay, loss_timeout_s,
                                                                                  vehicle.describe()))
-        self.assertLessEqual(delay, loss_timeout_s + slack_s + state_period_s,
+        self.assertLessEqual(delay, loss_timeout_s + slack_s + state_period_s + self.late_s(),
                              'left OFFBOARD for %s %.2f s after the last setpoint: later than COM_OF_LOSS_T %.1f s '
-                             '+ %.1f s + a state period %.1f s (%s)' % (mode, delay, loss_timeout_s, slack_s,
-                                                                        state_period_s, vehicle.describe()))
+                             '+ %.1f s + a state period %.1f s + %.1f s of a busy machine (%s)'
+                             % (mode, delay, loss_timeout_s, slack_s, state_period_s, self.late_s(),
+                                vehicle.describe()))
         return delay, mode
 
     def call_service(self, proxy, timeout_s, **request):
