@@ -9,7 +9,8 @@ rostest (a test node of yours beside the vehicle of sim_vehicle.launch; imports 
                     wait_for_altitude, wait_for_position ("reached"), assert_holds and
                     assert_holds_position ("held"), wait_for_failsafe (the offboard-loss failsafe
                     timed from the node's last setpoint), wait_until, pause, set_mode, set_arm,
-                    call_service; and the clock guard of simulated time
+                    call_service; and the clock guard of simulated time, and late_s() (how late
+                    a busy machine may let the test see a change, for the bounds of what it times)
   Vehicle           the mavros view of one vehicle namespace ('mavros', 'uav1/mavros'): state,
                     pose, and their history (states, positions, poses, velocities, setpoints)
   RosoutRecorder    what one node logged, from /rosout
