@@ -16,10 +16,11 @@ import socket
 import rospy
 import rostest
 
+from offboard_py.testing.reference import px4_rate_hz
 from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
-HEARTBEAT_PERIOD_S = 1.0
+HEARTBEAT_PERIOD_S = 1.0 / px4_rate_hz('HEARTBEAT')  # reference/px4-sitl-census.json
 # long enough for PX4 to fail safe and land from 2 m and disarm: COM_OF_LOSS_T 1 s, landing from
 # 2.2 m 12.8 s (PX4 SITL, px4-sitl-measured.md), COM_DISARM_LAND 2 s
 LONG_CUT_S = 20.0

@@ -9,29 +9,27 @@ landing (mavros/extended_state) at its time, then the disarm; AUTO.MISSION and a
 the flight. Nothing here is our stack's own: it runs unchanged on real mavros and real PX4.
 """
 
-import json
-import os
 import rospy
 import rostest
 from mavros_msgs.msg import ExtendedState, Waypoint, WaypointReached
 from mavros_msgs.srv import WaypointPush
 
 from offboard_py.testing.measured_tables import MISSION_BOX
+from offboard_py.testing.reference import load, px4_rate_hz
 from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle, now
 
 PKG = 'offboard_py'
 NAN = float('nan')
-# the same section, the two PX4 runs: arm -> MISSION_ITEM_REACHED 0..4 and arm -> landed (s)
-with open(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..', 'reference',
-                       'px4-sitl-flight-figures.json')) as _f:
-    _PX4 = json.load(_f)  # PX4 SITL's figures (reference/px4-sitl-measured.md, checked by test_reference_figures)
+# PX4 SITL's figures (reference/px4-sitl-measured.md, checked by test_reference_figures); the same section,
+# the two PX4 runs: arm -> MISSION_ITEM_REACHED 0..4 and arm -> landed (s)
+_PX4 = load('px4-sitl-flight-figures.json')
 REACHED_S = tuple(tuple(_PX4['figures']['mission']['arm_to_item_%d_s' % seq]) for seq in range(5))
 LANDED_S = tuple(_PX4['figures']['mission']['arm_to_landed_s'])
 LANDED_TO_DISARMED_S = max(_PX4['not_compared']['mission landed -> disarmed (s)'])  # the slower run
 # rostest's bounds are generous (the benchmark keeps the tight ones): 25 % either side of the runs,
 # for ROS's topic and service delays and a simulated clock
 WIDEN = 0.25
-STATE_PERIOD_S = 1.0  # mavros publishes armed with each HEARTBEAT (1 Hz): up to a period late
+STATE_PERIOD_S = 1.0 / px4_rate_hz('HEARTBEAT')  # mavros publishes armed with each HEARTBEAT: up to a period late
 # mavros publishes landed_state with each EXTENDED_SYS_STATE, 5 Hz on the onboard link
 # (reference/px4-sitl-measured.md, "The onboard link"): up to that period late, and a delivery
 LANDED_SEEN_LATE_S = 0.2 + 0.1

@@ -13,13 +13,14 @@ from mavros_msgs.msg import ExtendedState
 
 from offboard_py import px4_modes
 from offboard_py.testing.mavlink_listener import MavlinkListener
+from offboard_py.testing.reference import px4_param, px4_rate_hz
 from offboard_py.testing.rostest_common import OffboardTestCase, Vehicle, now
 
 PKG = 'offboard_py'
-LAND_SPEED = 0.7         # MPC_LAND_SPEED
+LAND_SPEED = px4_param('MPC_LAND_SPEED')  # PX4 SITL's (reference/px4-sitl-params-indexed.tsv)
 
 
-HEARTBEAT_PERIOD_S = 1.0  # PX4 says a mode change in its next HEARTBEAT, not at once
+HEARTBEAT_PERIOD_S = 1.0 / px4_rate_hz('HEARTBEAT')  # PX4 says a mode change in its next HEARTBEAT, not at once
 
 
 def modes_after(gcs, start):

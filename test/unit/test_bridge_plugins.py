@@ -23,9 +23,9 @@ from offboard_py.bridge import (command, core, global_position, home_position, i
 from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import HIGHRES_IMU_UPDATED_ACCEL_GYRO, mavlink
+from offboard_py.testing.reference import mavros_figure
 
 from bridge_rig import AUTO_LOITER, BUILD, OFFBOARD, FakeClock, FakeRos, Rig, heartbeat, same_rotation, wait_until
-from source_figures import mavros_figure
 
 
 def test_all_plugins_offer_mavros_names_latching_and_queues():

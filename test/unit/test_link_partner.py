@@ -9,9 +9,9 @@ from other systems are not decoded."""
 from offboard_py import wire
 from offboard_py.dialect import mavlink
 from offboard_py.mavlink_link import MavlinkLink
+from offboard_py.testing.reference import px4_figure
 
 from manual_clock import ManualClock
-from source_figures import px4_figure
 
 BRIDGE, FLOODER, GCS = ('127.0.0.1', 14540), ('127.0.0.1', 40001), ('127.0.0.1', 40002)
 

@@ -19,6 +19,7 @@ from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.mavlink import mission_manager
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
+from offboard_py.testing.reference import px4_figure, px4_param
 
 from offboard_flight import OffboardFlight
 
@@ -27,6 +28,16 @@ REFERENCE = os.path.join(os.path.dirname(__file__), '..', '..', 'reference')
 FRAME = LocalFrame(47.397742, 8.545594, 488.0)
 NAN = float('nan')
 TOLERANCE = 0.25  # of the recorded time
+STEP_S = 0.02  # a step of the flight here (OffboardFlight)
+# PX4's figures (reference/): the parameters as PX4 SITL has them, and its source's
+FAIL_ACT_S = px4_param('COM_FAIL_ACT_T')
+OF_LOSS_S = px4_param('COM_OF_LOSS_T')
+DL_LOSS_S = px4_param('COM_DL_LOSS_T')
+NOAID_S = px4_param('EKF2_NOAID_TOUT') / 1e6
+CHECK_S = px4_figure('commander', 'check_period_s')
+GCS_TIMEOUT_S = px4_figure('mavlink', 'gcs_heartbeat_timeout_s')
+RC_LOOK_S = px4_figure('manual_control', 'look_period_s')
+RC_LOSS_SEEN_S = RC_LOOK_S * math.floor(px4_param('COM_RC_LOSS_T') / RC_LOOK_S + 1)  # the first look after it
 LANDING_BEGINS_S = 8.2  # the battery recording's rows up to AUTO.LAND are held
 
 
@@ -189,7 +200,7 @@ def test_battery_drained_to_a_percentage_warns_then_returns():
     assert v.flight.status(v.t).nav_mode == 'AUTO.LOITER' and v.said(
         'Failsafe activated: entering Hold for 5 seconds\t', t1) is not None
     held = v.until(lambda st: st.nav_mode == 'AUTO.RTL', 8.0, 'the return')
-    assert 4.8 <= held <= 5.2, 'Hold for COM_FAIL_ACT_T 5 s, then Return: %.2f s' % held
+    assert abs(held - FAIL_ACT_S) <= CHECK_S + 2 * STEP_S, 'Hold for COM_FAIL_ACT_T, then Return: %.2f s' % held
     assert v.flight.status(v.t).user_mode == 'OFFBOARD', 'the user\'s mode stays'
     assert v.flight.status(v.t).battery_warning == WARNING_CRITICAL
 
@@ -226,12 +237,13 @@ def test_data_link_loss_is_ignored_by_default_and_returns_with_nav_dll_act():
     last = v.t - 1.0  # each period begins with its HEARTBEAT: the last was 1 s before now
     v.until(lambda st: st.failsafe, 20.0, 'the data-link failsafe')
     lost_s = v.t - last
-    assert 10.0 + 1.25 <= lost_s <= 10.0 + 2.5 + 0.2, 'GCS lost %.2f s after its last HEARTBEAT' % lost_s
+    assert DL_LOSS_S + GCS_TIMEOUT_S / 2 <= lost_s <= DL_LOSS_S + GCS_TIMEOUT_S + CHECK_S + 2 * STEP_S, \
+        'GCS lost %.2f s after its last HEARTBEAT' % lost_s
     assert v.flight.status(v.t).nav_mode == 'AUTO.LOITER'
     assert v.said('Connection to ground station lost\t', last) is not None
     assert v.said('Failsafe activated: entering Hold for 5 seconds\t', last) is not None
     held = v.until(lambda st: st.nav_mode == 'AUTO.RTL', 8.0, 'the return')
-    assert 4.8 <= held <= 5.2
+    assert abs(held - FAIL_ACT_S) <= CHECK_S + 2 * STEP_S
 
 
 def test_without_a_ground_station_nav_dll_act_refuses_arming():
@@ -260,7 +272,7 @@ def test_offboard_loss_for_each_com_obl_rc_act(obl_act, with_rc, without_rc):
         v.until(lambda st: st.nav_mode != 'OFFBOARD' or not st.armed, 3.0, 'the offboard-loss failsafe')
         st = v.flight.status(v.t)
         assert (st.nav_mode if st.armed else 'disarmed') == expected, (obl_act, rc, st.nav_mode)
-        assert v.t - last <= 1.0 + 0.1 + 0.02, 'COM_OF_LOSS_T 1 s, checked at 10 Hz: %.2f s' % (v.t - last)
+        assert v.t - last <= OF_LOSS_S + CHECK_S + STEP_S, 'COM_OF_LOSS_T, checked at 10 Hz: %.2f s' % (v.t - last)
         assert st.user_mode == 'OFFBOARD' or not st.armed
 
 
@@ -276,12 +288,13 @@ def test_manual_control_loss_only_where_it_was_in_use():
     v.offboard_at_2m()
     v.joystick = False
     lost = v.until(lambda st: st.failsafe, 1.5, 'the RC-loss failsafe')
-    # COM_RC_LOSS_T 0.5 s, which PX4's ManualControl sees on its first look at or after it (every 200 ms without a
+    # COM_RC_LOSS_T, which PX4's ManualControl sees on its first look after it (every look_period_s without a
     # sample: ManualControl.cpp ScheduleDelayed(200_ms)), so 0.6 s; then the commander's 10 Hz checks
-    assert 0.6 <= lost <= 0.6 + 0.1 + 0.02, 'COM_RC_LOSS_T 0.5 s, seen at 0.6 s, checked at 10 Hz: %.2f s' % lost
+    assert RC_LOSS_SEEN_S - 1e-9 <= lost <= RC_LOSS_SEEN_S + CHECK_S + STEP_S, \
+        'COM_RC_LOSS_T, seen at %.1f s, checked at 10 Hz: %.2f s' % (RC_LOSS_SEEN_S, lost)
     assert v.flight.status(v.t).nav_mode == 'AUTO.LOITER'
     held = v.until(lambda st: st.nav_mode == 'AUTO.RTL', 8.0, 'the return')
-    assert 4.8 <= held <= 5.2
+    assert abs(held - FAIL_ACT_S) <= CHECK_S + 2 * STEP_S
     without = Vehicle()
     without.offboard_at_2m()
     without.run(8.0)
@@ -342,7 +355,7 @@ def test_gps_off_in_offboard_falls_back_once_ekf2_gives_up():
     v.offboard_at_2m()
     assert v.inject(M.FAILURE_UNIT_SENSOR_GPS, M.FAILURE_TYPE_OFF) is True
     took = v.until(lambda st: st.nav_mode != 'OFFBOARD', 8.0, 'the position-loss failsafe')
-    assert 5.0 <= took <= 5.0 + 0.2, 'EKF2_NOAID_TOUT 5 s, then the 10 Hz checks: %.2f s' % took
+    assert NOAID_S <= took <= NOAID_S + 2 * CHECK_S, 'EKF2_NOAID_TOUT, then the 10 Hz checks: %.2f s' % took
     st = v.flight.status(v.t)
     assert (st.nav_mode, st.user_mode, st.failsafe) == ('ALTCTL', 'OFFBOARD', True)
     assert v.flight.request_mode('AUTO.LOITER', v.t) == M.MAV_RESULT_TEMPORARILY_REJECTED, 'Hold needs a position'
@@ -391,7 +404,7 @@ def test_framework_delays_auto_actions_and_not_fallbacks():
     other.update(0.1, True, 'OFFBOARD', False, flags)
     assert other.selected == ff.Action.RTL, 'a mode fallback is not delayed'
     assert ff.mode_from_action(ff.Action.HOLD, 'OFFBOARD') == 'AUTO.LOITER'
-    assert math.isclose(params['COM_FAIL_ACT_T'], 5.0)
+    assert math.isclose(params['COM_FAIL_ACT_T'], FAIL_ACT_S)
 
 
 # -- the offboard signal back after its failsafe ----------------------------------------------------

@@ -19,9 +19,9 @@ import pytest
 from offboard_py.dialect import mavlink
 from offboard_py.sim import autopilot as ap_module
 from offboard_py.sim.autopilot import SimulatedPx4
+from offboard_py.testing.reference import px4_figure
 
 from manual_clock import ManualClock
-from source_figures import px4_figure
 
 STEP_S = 0.01
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

@@ -33,7 +33,7 @@ ports (no ROS): instance numbers and UDP ports, from one formula
   ports.fcu_port, ports.bridge_port, ports.system_id, ports.free_instances
 
 The other modules here (processes, mavlink_listener, mavlink_fuzz, lossy_relay, mavros_typemasks,
-broken_offb_node) serve this package's own tests and may change without notice. Importing
+broken_offb_node, and reference and measured_tables, which read the figures of reference/) serve this package's own tests and may change without notice. Importing
 this package imports neither rospy nor pymavlink: each name is imported when first used, so
 the ROS-free tiers never load rospy.
 """
