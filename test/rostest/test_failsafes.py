@@ -8,7 +8,6 @@ running, it logged the takeover and asked for OFFBOARD no more. The case is the 
 (failsafe_<case>.test)."""
 
 import json
-import math
 import os
 
 import rosnode
@@ -19,7 +18,7 @@ from mavros_msgs.srv import WaypointPush
 
 from offboard_py.dialect import mavlink
 from offboard_py.testing import Failures, OffboardTestCase, RosoutRecorder, Vehicle, now
-from offboard_py.testing.reference import load, px4_figure, px4_param, px4_rate_hz
+from offboard_py.testing.reference import load, px4_figure, px4_param, px4_rate_hz, px4_rc_loss_seen_s
 
 PKG = 'offboard_py'
 NODE = '/offb_node_py'
@@ -31,9 +30,7 @@ GCS_TIMEOUT_S = px4_figure('mavlink', 'gcs_heartbeat_timeout_s')  # telemetry_st
 NOAID_TIMEOUT_S = px4_param('EKF2_NOAID_TOUT') / 1e6  # EKF2 keeps a position this long without GPS (us)
 OF_LOSS_S = px4_param('COM_OF_LOSS_T')
 CHECK_S = px4_figure('commander', 'check_period_s')  # the commander's health checks, and its failsafe flags
-# COM_RC_LOSS_T as ManualControl sees it: at its first look (every look_period_s without a sample) after it
-RC_LOSS_SEEN_S = px4_figure('manual_control', 'look_period_s') * math.floor(
-    px4_param('COM_RC_LOSS_T') / px4_figure('manual_control', 'look_period_s') + 1)
+RC_LOSS_SEEN_S = px4_rc_loss_seen_s()
 BATTERY_OFF = load('px4-sitl-battery-off.json')['seconds_from_the_injection']  # one run of real PX4 SITL
 BATTERY_HOLD_S = next(row['t'] for row in BATTERY_OFF
                       if row.get('text', '').startswith('Failsafe activated: entering Hold'))

@@ -19,7 +19,7 @@ from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.mavlink import mission_manager
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
-from offboard_py.testing.reference import px4_figure, px4_param
+from offboard_py.testing.reference import px4_figure, px4_param, px4_rc_loss_seen_s
 
 from offboard_flight import OffboardFlight
 
@@ -36,8 +36,7 @@ DL_LOSS_S = px4_param('COM_DL_LOSS_T')
 NOAID_S = px4_param('EKF2_NOAID_TOUT') / 1e6
 CHECK_S = px4_figure('commander', 'check_period_s')
 GCS_TIMEOUT_S = px4_figure('mavlink', 'gcs_heartbeat_timeout_s')
-RC_LOOK_S = px4_figure('manual_control', 'look_period_s')
-RC_LOSS_SEEN_S = RC_LOOK_S * math.floor(px4_param('COM_RC_LOSS_T') / RC_LOOK_S + 1)  # the first look after it
+RC_LOSS_SEEN_S = px4_rc_loss_seen_s()
 LANDING_BEGINS_S = 8.2  # the battery recording's rows up to AUTO.LAND are held
 
 

@@ -38,11 +38,6 @@ def _sim_time():
     return rospy.get_param('/use_sim_time', False) is True
 
 
-def speed():
-    """Simulated seconds per wall second: sim_clock's speed in simulated time, else 1."""
-    return float(rospy.get_param('/sim_clock/speed', 1.0)) if _sim_time() else 1.0
-
-
 def now():
     """ROS time in seconds; in simulated time, waits (bounded) for the first /clock."""
     t = rospy.get_time()
@@ -62,7 +57,7 @@ class ClockGuard:
     offboard_py.simtime) in simulated time; 0 in real time."""
 
     def __init__(self):
-        self.speed = speed()
+        self.speed = float(rospy.get_param('/sim_clock/speed', 1.0)) if _sim_time() else 1.0
         self.worst_s = 0.0
         self.stalls = 0  # lags over MAX_CLOCK_LAG_S that went within CATCH_UP_WALL_S
 
@@ -186,11 +181,14 @@ class OffboardTestCase(unittest.TestCase):
 
     clock_guard = None
 
-    def guard(self):
-        """Fail now if the ROS side cannot keep up with the simulated clock."""
+    def _clock_guard(self):
         if self.clock_guard is None:
             OffboardTestCase.clock_guard = ClockGuard()
-        problem = self.clock_guard.problem()
+        return self.clock_guard
+
+    def guard(self):
+        """Fail now if the ROS side cannot keep up with the simulated clock."""
+        problem = self._clock_guard().problem()
         if problem:
             self.fail(problem)
 
@@ -199,7 +197,7 @@ class OffboardTestCase(unittest.TestCase):
         BUSY_WALL_S at the scenario's speed (at 5x a 0.1 s wait for a CPU is half a simulated second). The
         upper bounds of what a scenario times add it; the simulated PX4's own timing is held to the tenth
         offline on a clock of its own (test/unit/test_sim_failsafes.py) and beside real PX4's in bench/results."""
-        return BUSY_WALL_S * speed()
+        return BUSY_WALL_S * self._clock_guard().speed
 
     def pause(self, duration_s):
         """Let duration_s of ROS time pass, watching the clock guard."""
