@@ -4,7 +4,8 @@ ROS 1 checks the md5 sum of a type on every connection, so a bag or node built w
 real mavros_msgs interoperates only if ours hash the same. The expected sums are the
 upstream ones: real mavros_msgs 1.21's (reference/mavros_msgs-1.21-md5.tsv, from a real build) and
 upstream geographic_msgs's GeoPoint. Both the definition files
-(through genmsg, as catkin does) and the generated Python classes are checked.
+(through genmsg, as catkin does) and the generated Python classes are checked, and our mavros_msgs
+must hold all of upstream's 1.21 (every type of the tsv, none missing).
 """
 
 import importlib
@@ -68,18 +69,37 @@ def _search_path():
     return path
 
 
-@pytest.mark.parametrize('full_name', sorted(n for n, _ in OURS))
-def test_definition_md5(full_name):
+def _definition_md5(full_name, kind):
+    """md5 of one of our definition files, as genmsg computes it for the build."""
     package, name = full_name.split('/')
     ctx = genmsg.MsgContext.create_default()
-    if name in SERVICES:
+    if kind == 'srv':
         spec = genmsg.msg_loader.load_srv_from_file(
             ctx, os.path.join(INTERFACES, package, 'srv', name + '.srv'), full_name)
     else:
         spec = genmsg.msg_loader.load_msg_from_file(
             ctx, os.path.join(INTERFACES, package, 'msg', name + '.msg'), full_name)
     genmsg.msg_loader.load_depends(ctx, spec, _search_path())
-    assert genmsg.gentools.compute_md5(ctx, spec) == EXPECTED[full_name]
+    return genmsg.gentools.compute_md5(ctx, spec)
+
+
+@pytest.mark.parametrize('full_name', sorted(n for n, _ in OURS))
+def test_definition_md5(full_name):
+    kind = 'srv' if full_name.split('/')[1] in SERVICES else 'msg'
+    assert _definition_md5(full_name, kind) == EXPECTED[full_name]
+
+
+def test_all_of_mavros_msgs_1_21():
+    """Every msg and srv of mavros_msgs 1.21 is ours, of the same kind, with upstream's md5 sum."""
+    with open(REFERENCE) as f:
+        rows = [line.rstrip('\n').split('\t') for line in f][1:]
+    assert len(rows) == 124, 'reference/mavros_msgs-1.21-md5.tsv: %d rows, not 79 msg + 45 srv' % len(rows)
+    ours = dict(OURS)
+    missing = sorted('%s (%s)' % (full_name, kind) for kind, full_name, _ in rows if ours.get(full_name) != kind)
+    differ = sorted(full_name for kind, full_name, md5 in rows
+                    if ours.get(full_name) == kind and _definition_md5(full_name, kind) != md5)
+    assert not missing and not differ, 'not in interfaces/mavros_msgs: %s; md5 differs from upstream: %s' % (
+        missing or 'none', differ or 'none')
 
 
 @pytest.mark.parametrize('full_name', sorted(n for n, _ in OURS))
