@@ -150,6 +150,30 @@ def test_download_requests_out_of_turn(rig):
     assert rig.transfer.state == rig.transfer.IDLE
 
 
+def test_downloaded_items_come_back_as_px4_keeps_them(rig):
+    """mavlink_mission.cpp format_mavlink_mission_item: a positional item comes back in GLOBAL_RELATIVE_ALT_INT to
+    MISSION_REQUEST_INT (reference/px4-sitl-measured.md, "Turn 5": frame 6), GLOBAL_RELATIVE_ALT to the legacy
+    request, with the fields PX4 kept (a waypoint's pass radius, param3, dropped; its yaw wrapped to 0..360);
+    a MAV_FRAME_MISSION item as it came."""
+    rig.receive(count(2), 0.0)
+    rig.receive(GCS.mission_item_int_encode(1, 1, 0, M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_CMD_NAV_WAYPOINT, 0, 1,
+                                            2.0, 1.5, 4.0, -90.0, 473977420, 85455940, 5.0, MISSION), 0.1)
+    rig.receive(GCS.mission_item_int_encode(1, 1, 1, M.MAV_FRAME_MISSION, M.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 1,
+                                            0.0, 0.0, 0.0, 0.0, 0, 0, 0.0, MISSION), 0.2)
+    assert rig.acks() == [M.MAV_MISSION_ACCEPTED]
+    rig.receive(GCS.mission_request_list_encode(1, 1, MISSION), 0.3)
+    rig.receive(GCS.mission_request_int_encode(1, 1, 0, MISSION), 0.4)
+    rig.receive(GCS.mission_request_int_encode(1, 1, 1, MISSION), 0.5)
+    wp, rtl = rig.sent('MISSION_ITEM_INT')
+    assert wp.frame == M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT and (wp.x, wp.y, wp.z) == (473977420, 85455940, 5.0)
+    assert (wp.param1, wp.param2, wp.param3) == (2.0, 1.5, 0.0) and wp.param4 == pytest.approx(270.0, abs=1e-3)
+    assert (rtl.frame, rtl.command) == (M.MAV_FRAME_MISSION, M.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+    rig.receive(GCS.mission_ack_encode(1, 1, M.MAV_MISSION_ACCEPTED, MISSION), 0.6)
+    rig.receive(GCS.mission_request_list_encode(1, 1, MISSION), 0.7)
+    rig.receive(GCS.mission_request_encode(1, 1, 0, MISSION), 0.8)
+    assert rig.sent('MISSION_ITEM')[-1].frame == M.MAV_FRAME_GLOBAL_RELATIVE_ALT
+
+
 def test_only_its_own_system_id(rig):
     for target, component, taken in ((1, 1, True), (1, 0, True), (1, 190, True), (0, 1, False), (1, 42, False),
                                      (2, 1, False)):

@@ -21,6 +21,7 @@ from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.mavlink.mission_manager import Item
 from offboard_py.sim.param_store import ParamStore
+from offboard_py.testing.reference import px4_param
 
 REFERENCE = os.path.join(os.path.dirname(__file__), '..', '..', 'reference')
 RECORDED = os.path.join(REFERENCE, 'px4-sitl-mission-no-takeoff-item.json')
@@ -230,6 +231,7 @@ class Recorder:
 
     def __init__(self, f):
         self.f, self.t, self.reached, self.current, self.samples = f, 0.0, {}, [], []
+        self.texts = []
 
     def run(self, seconds=None, until=None, limit_s=200.0):
         end = self.t + (seconds if seconds is not None else limit_s)
@@ -241,6 +243,8 @@ class Recorder:
                     self.reached.setdefault(e.seq, self.t)
                 elif isinstance(e, ev.MissionCurrent):
                     self.current.append(e.seq)
+                elif isinstance(e, ev.StatusText):
+                    self.texts.append(e.text)
             v = self.f.vehicle
             self.samples.append((self.t, tuple(v.position), tuple(v.velocity), self.f.commander.nav_mode))
             if until is not None and until(self):
@@ -280,12 +284,23 @@ def test_nav_loiter_time_holds_at_its_point_for_param1_seconds():
     assert all(abs(p[0] - 20) < 1.0 and abs(p[1]) < 1.0 for p in held), 'held over the loiter point'
 
 
-def test_return_to_launch_as_the_last_item_flies_home_and_lands():
+def test_return_to_launch_as_the_last_item_is_px4s_return_mode():
     """SDKs append NAV_RETURN_TO_LAUNCH (in MAV_FRAME_MISSION: the upload of one in a global frame is
-    refused, test_sim_mission_protocol): home, land, the item reached on the ground, disarmed."""
-    r = Recorder(gcs_mission_flight([(WP, 25, 0, 8, 0, 0), (M.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0)]))
-    r.run(until=lambda r: not r.f.commander.armed, limit_s=90.0)
-    assert sorted(r.reached) == [0, 1]
+    refused, test_sim_mission_protocol). PX4's mission issues it as a vehicle command (navigator's
+    mission_block.cpp issue_command; is_mission_item_reached_or_completed: reached at once) and the commander
+    switches to AUTO.RTL ("Returning to launch", Commander.cpp VEHICLE_CMD_NAV_RETURN_TO_LAUNCH), which climbs
+    to RTL_RETURN_ALT beyond RTL_MIN_DIST, flies home and lands (reference/px4-sitl-measured.md, "Turn 5": AUTO.RTL
+    reported during the return, 32 m seen)."""
+    out_m = 3.0 * px4_param('RTL_MIN_DIST')
+    r = Recorder(gcs_mission_flight([(WP, out_m, 0, 8, 0, 0), (M.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0)]))
+    r.run(until=lambda r: not r.f.commander.armed, limit_s=150.0)
+    assert sorted(r.reached) == [0, 1], 'the item reached as it is issued'
+    assert 'Returning to launch\t' in r.texts, r.texts
+    modes = [mode for _, _, _, mode in r.samples]
+    assert 'AUTO.RTL' in modes and modes.index('AUTO.RTL') > modes.index('AUTO.MISSION')
+    returning = [p for _, p, _, mode in r.samples if mode == 'AUTO.RTL']
+    assert max(-p[2] for p in returning) >= px4_param('RTL_RETURN_ALT') - px4_param('NAV_MC_ALT_RAD'), \
+        'climbed to RTL_RETURN_ALT (%.1f m)' % max(-p[2] for p in returning)
     final = r.samples[-1][1]
     assert (final[0] ** 2 + final[1] ** 2) ** 0.5 < 2.0 and r.f.vehicle.landed
 
@@ -337,3 +352,39 @@ def test_a_mission_uploaded_while_flying_is_flown_from_its_first_item():
     final = r.samples[-1][1]
     assert abs(final[1] + 25.0) < 3.0 and final[0] < 15.0, 'flew to the new item (at %s)' % (final,)
     assert r.f.landed_state() == M.MAV_LANDED_STATE_IN_AIR
+
+
+def test_mission_item_reached_is_said_again_with_mission_current():
+    """mavlink_mission.cpp MavlinkMissionManager::send(): the reached seq at once, then with each MISSION_CURRENT
+    (its 1 Hz _slow_rate_limiter) another 10 times while a mission is loaded (reference/px4-sitl-measured.md,
+    "Turn 5": PX4 repeats MISSION_ITEM_REACHED about once a second)."""
+    from offboard_py.sim.autopilot import SimulatedPx4
+    from manual_clock import ManualClock
+    clock = ManualClock(1000.0)
+    ap = SimulatedPx4(bind_host='127.0.0.1', local_port=0, remote_port=9, gcs=False, ready_delay_s=0.0, clock=clock)
+    sent = []
+    codec = M.MAVLink(None, srcSystem=ap.system_id, srcComponent=1)
+
+    def send_many(msgs):
+        for msg in msgs:
+            decoded = codec.decode(bytearray((msg if hasattr(msg, 'pack') else msg.message()).pack(codec)))
+            sent.append((clock.now_s, decoded))
+    ap.link.send_many = send_many
+    ap.link.send = lambda msg: send_many([msg])
+    try:
+        frame = LocalFrame(*HOME)
+        lat, lon, _ = frame.to_global(5.0, 0.0, 0.0)
+        ap.flight.load_mission([Item(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, WP, 1, 0.0, 0.0, 0.0, NAN, lat, lon, 3.0)])
+        assert ap.flight.request_mode('AUTO.MISSION', ap.t()) == M.MAV_RESULT_ACCEPTED
+        assert ap.flight.request_arming(True, False, ap.t()) == M.MAV_RESULT_ACCEPTED
+        for _ in range(int(30.0 / 0.01)):
+            clock.now_s += 0.01
+            ap.step(0.01)
+    finally:
+        ap.close_links()
+    reached = [t for t, m in sent if m.get_type() == 'MISSION_ITEM_REACHED' and m.seq == 0]
+    current = [t for t, m in sent if m.get_type() == 'MISSION_CURRENT']
+    assert len(reached) == 11, 'once, then 10 times more: %d' % len(reached)
+    assert all(t in current for t in reached[1:]), 'said again with MISSION_CURRENT'
+    gaps = [b - a for a, b in zip(reached[1:], reached[2:])]
+    assert all(abs(g - 1.0) < 0.02 for g in gaps), gaps

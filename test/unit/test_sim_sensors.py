@@ -16,9 +16,7 @@ import pytest
 from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input
 from offboard_py.sim.mavlink import messages
-from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
-from offboard_py.sim.main import parser
 from offboard_py.sim.param_store import ParamRejected, ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
@@ -271,14 +269,6 @@ def test_ground_position_after_a_fresh_start_is_px4s_and_repeats():
     ideal = Run(ideal=True)
     ideal.run(1.0)
     assert ideal.flight.status(ideal.t).position == (0.0, 0.0, 0.0)
-
-
-def test_preflight_checks_pass_4_s_after_boot_by_default():
-    """Section 7: HEARTBEAT system_status 3 (STANDBY) 4.0 s after the first message, in all eight starts."""
-    assert parser().parse_args([]).ready_delay == 4.0
-    f = Flight(ParamStore({}), FRAME, 0.0, ready_delay_s=parser().parse_args([]).ready_delay)
-    assert f.status(3.95).system_status != M.MAV_STATE_STANDBY
-    assert f.status(4.0).system_status == M.MAV_STATE_STANDBY
 
 
 def px4_lift_off_s():

@@ -210,7 +210,10 @@ def test_offboard_selected_without_setpoints_fails_the_prearm_checks_then_passes
 def test_sys_status_message_follows_the_prearm_verdict():
     f = make(ready_delay_s=5.0)
     b = builder(f)
-    early, late = (b.build('SYS_STATUS', f.status(t), t) for t in (1.0, 6.0))
+    fly(f, 0.0, 1.0)
+    early = b.build('SYS_STATUS', f.status(1.0), 1.0)
+    fly(f, 1.0, 6.0)
+    late = b.build('SYS_STATUS', f.status(7.0), 7.0)
     assert not early.onboard_control_sensors_health & M.MAV_SYS_STATUS_PREARM_CHECK
     assert late.onboard_control_sensors_health & M.MAV_SYS_STATUS_PREARM_CHECK
     assert (late.load, late.voltage_battery, late.current_battery, late.battery_remaining) == (137, 16200, -100, 100)
@@ -473,7 +476,7 @@ def test_rtl_time_estimate_is_px4s():
     """navigator's RtlDirect::calc_rtl_time_estimate for a multicopter with PX4 SITL's parameters
     (RTL_RETURN_ALT 30, RTL_DESCEND_ALT 10, RTL_CONE_ANG 45, MPC_Z_V_AUTO_UP 3, MPC_Z_V_AUTO_DN 1.5,
     MPC_XY_CRUISE 5), worked out by hand from PX4's formula."""
-    from offboard_py.sim.navigator import rtl_time_estimate
+    from offboard_py.sim.rtl import rtl_time_estimate
     p = ParamStore({})
     home = (0.0, 0.0, 0.0)
     assert rtl_time_estimate(p, (0.0, 0.0, 0.0), home, landed=True) is None

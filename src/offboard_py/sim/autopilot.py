@@ -24,8 +24,10 @@ from offboard_py.signing import SigningKeyError, read_signing_key
 from offboard_py.sim import events as ev
 from offboard_py.sim import loop
 from offboard_py.sim import param_store as sim_params
+from offboard_py.sim.commander import READY_S
 from offboard_py.sim.flight import Flight
 from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.logger import Logger
 from offboard_py.sim.mavlink import mission_manager, streams as sim_streams
 from offboard_py.sim.mavlink.command_sender import CommandSender
 from offboard_py.sim.mavlink.link_stats import LinkCounters
@@ -47,9 +49,9 @@ ORIGIN_FIRST_SENT_S = 1.0
 
 class SimulatedPx4:
     def __init__(self, instance=0, home=DEFAULT_HOME, bind_host='127.0.0.1', local_port=None, remote_port=None,
-                 param_overrides=(), ready_delay_s=5.0, rc=False, rate_hz=100.0, steps_per_wakeup=2, clock=None,
+                 param_overrides=(), ready_delay_s=READY_S, rc=False, rate_hz=100.0, steps_per_wakeup=2, clock=None,
                  signing_key_file=None, allowed_systems=(), gcs=True, gcs_port=None, gcs_remote_port=None,
-                 pack_datagrams=False):
+                 pack_datagrams=False, log_dir=None):
         # Every timer, rate and time_boot_ms runs on this clock: speed x real time
         self.clock = SimClock(1.0) if clock is None else clock
         clock = self.clock
@@ -84,6 +86,7 @@ class SimulatedPx4:
                 raise
             self.links.append(self.gcs_link)
         self.reply_link = self.link  # the link of the request being handled: answers go back on it
+        self.reached_repeats = {link: mission_manager.ReachedRepeats() for link in self.links}
         self.streams = {self.link: sim_streams.Streams(self.t(now), sim_streams.ONBOARD_RATES_HZ)}
         if self.gcs_link:
             self.streams[self.gcs_link] = sim_streams.Streams(self.t(now), sim_streams.GCS_RATES_HZ)
@@ -114,7 +117,13 @@ class SimulatedPx4:
             self.mav, self.system_id, lambda: self.reply_link,
             lambda text: self.text(mavlink.MAV_SEVERITY_CRITICAL, text), self._on_mission_changed)
         self.parameters = ParametersManager(self)
+        self.log_root = log_dir or None  # PX4's log folder (sim.logger, sim.mavlink.log_handler); None: no logs
+        self.logger = None
         self.receiver = Receiver(self)
+        if self.log_root:
+            self.logger = Logger(self.log_root, self.params, self.flight, self.frame, self.system_id, self.t(now),
+                                 self.text)
+            self.logger.boot(self.t(now))
         self.running = False
 
     def t(self, now=None):
@@ -147,11 +156,15 @@ class SimulatedPx4:
         return False
 
     def text(self, severity, text):
-        """A text for every link's STATUSTEXT queue (sim.mavlink.statustext)."""
+        """A text for every link's STATUSTEXT queue (sim.mavlink.statustext), and for the log."""
         self.texts.add(severity, text, self.t())
+        if self.logger is not None:
+            self.logger.on_text(severity, text, self.t())
 
     def _on_mission_changed(self, mission_type):
         if mission_type == mission_manager.MISSION_TYPE_MISSION:
+            for repeats in self.reached_repeats.values():
+                repeats.forget()
             self.flight.load_mission(self.mission_manager.mission())
             self.say_events()
         elif mission_type == mavlink.MAV_MISSION_TYPE_FENCE:
@@ -164,6 +177,8 @@ class SimulatedPx4:
         events = self.flight.take_events()
         if not events:
             return
+        if self.logger is not None:
+            self.logger.on_events(events)
         now = self.t()
         status = self.flight.status(now)
         for event in events:
@@ -180,6 +195,8 @@ class SimulatedPx4:
                 self.broadcast(self.telemetry.build('MISSION_CURRENT', status, now))
             elif isinstance(event, ev.ItemReached):
                 self.broadcast(self.mav.mission_item_reached_encode(event.seq))
+                for repeats in self.reached_repeats.values():
+                    repeats.reached(event.seq)
             elif isinstance(event, ev.VehicleCommand):
                 self.command_sender.send_vehicle_command(event)
 
@@ -197,6 +214,8 @@ class SimulatedPx4:
         self.say_events()
         if self.parameters.param_lists:
             self.parameters.send_lists(out)
+        for log_handler in self.receiver.log_handlers.values():
+            log_handler.send(now, out)
         self.texts.send(now, out)
         if not self.origin_sent and now >= ORIGIN_FIRST_SENT_S:
             self.origin_sent = True
@@ -218,8 +237,14 @@ class SimulatedPx4:
                     built[name] = self.telemetry.build(name, status, now)
                 if built[name] is not None:
                     msgs.append(built[name])
+                if name == 'MISSION_CURRENT':
+                    seq = self.reached_repeats[link].due(len(self.flight.navigator.mission.items))
+                    if seq is not None:
+                        msgs.append(self.mav.mission_item_reached_encode(seq))
             if out is None and msgs:
                 link.send_many(msgs)
+        if self.logger is not None:
+            self.logger.step(now, status)
 
     # -- the loop --------------------------------------------------------------------------
 
@@ -237,6 +262,10 @@ class SimulatedPx4:
         log.info('link: %s; vehicle: %s', counts(self.link.stats), counts(self.counters))
         if self.gcs_link:
             log.info('GCS link: %s', counts(self.gcs_link.stats))
+        if self.logger is not None:
+            self.logger.close()
+        for log_handler in self.receiver.log_handlers.values():
+            log_handler.close()
         self.close_links()
 
     def close_links(self):

@@ -2,7 +2,9 @@
 
 Rules, as current PX4 applies them (reference/px4-behaviour.md):
 - Boots in AUTO.LOITER, disarmed; arming is refused for `ready_delay_s` while the
-  estimator settles ("Ready for takeoff" after about 5 s on PX4 SITL).
+  estimator settles (EKF2 fusing GPS about 3.8 s after boot on PX4 SITL). What SYS_STATUS says of it
+  goes through the health report (sim.health_checks): a zeroed report until FIRST_REPORT_S, then the
+  sensors present without the GPS, then the GPS present with PREARM_CHECK at the next report.
 - HEARTBEAT's system_status as PX4 main reports it (reference/px4-sitl-measured.md, "Turn 3
   recordings", section 6): UNINIT while a pre-arm check fails (before ready, with an injected
   failure, OFFBOARD selected without the offboard signal, a manual mode without RC, AUTO.MISSION
@@ -37,7 +39,11 @@ Rules, as current PX4 applies them (reference/px4-behaviour.md):
   signal, in a manual mode without RC, in AUTO.MISSION without a mission, in AUTO.LAND
   or AUTO.RTL; DENIED while not landed. Disarming is TEMPORARILY_REJECTED unless the land
   detector says landed or maybe landed (PX4's Commander::disarm; an OFFBOARD takeoff loses
-  maybe-landed as its thrust rises). PX4's force magic (21196) skips the checks.
+  maybe-landed as its thrust rises). PX4's force magic (21196) skips the checks, but for Commander::arm's stick
+  checks, which a command from a link always meets: with a ground station's sticks (MANUAL_CONTROL) in a manual
+  mode, "Arming denied: throttle above center" where the climb rate is controlled (ALTCTL, POSCTL) and "Arming
+  denied: high throttle" elsewhere unless the throttle is low, TEMPORARILY_REJECTED (reference/
+  px4-sitl-manual-control.json, "arming").
 - COM_DISARM_PRFLT: armed this long with no takeoff -> disarm. COM_DISARM_LAND: landed
   this long after a flight -> disarm. A mission that ends with a landing disarms as soon as it
   is down (measured on PX4 SITL: 0.02-0.41 s after landed).
@@ -47,7 +53,6 @@ does). Pure: time is passed in, what it knows of the vehicle is set by the fligh
 (`landed`, `has_mission`), and what must be said or done goes to `events` (sim.events).
 """
 
-import math
 
 from offboard_py import px4_modes
 from offboard_py.dialect import mavlink
@@ -56,27 +61,31 @@ from offboard_py.sim import failsafe as fs
 from offboard_py.sim import failsafe_framework as ff
 from offboard_py.sim.battery_simulator import WARNING_EMERGENCY, WARNING_NONE
 from offboard_py.sim.data_link import DataLink
-from offboard_py.sim.health_checks import HealthReport, failing_checks
+from offboard_py.sim.health_checks import FIRST_REPORT_S, HealthReport, failing_checks
 from offboard_py.sim.logger_status import LoggerStatus
+from offboard_py.sim.manual_control_input import ManualControlInput
 from offboard_py.sim.mode_util import (FLOWN_AS, NAV_STATE_NAMES, NOT_ARMABLE, REFUSED_MODES, TRANSIENT_MODES,
                                       set_mode_target)
 
+# EKF2 fuses GPS and PX4 sets home again 3.79 and 3.80 s after boot in the two recorded conversations from
+# PX4's start (HOME_POSITION.time_usec, reference/px4-sitl-boot-timeline.json): arming is taken from then on,
+# though the health report says so only at its next interval (4.08-4.18 s there)
+READY_S = 3.8
 NO_POSITION = ff.Flags(local_position_invalid=True, local_position_invalid_relaxed=True, global_position_invalid=True)
 HEALTH_CHECK_S = 0.1  # Commander runs its health and arming checks at 10 Hz
 REJECT_PRINT_S = 1.0  # Commander::printRejectMode's interval
-MANUAL_CONTROL_RUN_S = 0.2  # ManualControl::Run without a new sample (ScheduleDelayed(200_ms))
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
 class Commander:
-    def __init__(self, params, now_s, ready_delay_s=5.0, rc=False):
+    def __init__(self, params, now_s, ready_delay_s=READY_S, rc=False):
         self.params = params
         self.boot_s = now_s
         self.now_s = now_s
         self.ready_delay_s = ready_delay_s
         self.ready_announced = False
         self.rc = rc               # an RC receiver is simulated (always on)
-        self.manual_control_s = None  # the last MANUAL_CONTROL (a ground station's joystick)
+        self.manual_control = ManualControlInput(params)  # a ground station's joystick (MANUAL_CONTROL)
         self.landed = True         # the land detector's word, kept current by the flight stack
         self.maybe_landed = True   # ... and its maybe-landed stage
         self.has_mission = False   # a valid mission is loaded, kept current by the flight stack
@@ -101,9 +110,10 @@ class Commander:
                               gcs_connection_lost=True)
         self.failsafe_state = fs.Failsafe(params)
         self.failsafe_state.on_notify_user = lambda: self.health.report_if_unreported(self.now_s)
-        self.health = HealthReport()
+        self.health = HealthReport(first_s=now_s + min(FIRST_REPORT_S, ready_delay_s))
         self.health_checked_s = None
         self.last_battery_warning = WARNING_NONE  # Commander::battery_status_check's _battery_warning
+        self.health.update(now_s, self._failing_checks())  # published at once only when ready at boot
 
     # -- what the link reports ---------------------------------------------------------------
 
@@ -118,6 +128,14 @@ class Commander:
     def prearm_ok(self, now_s):
         """The pre-arm checks pass (PX4 runs them armed or not; a disarm leaves them passing)."""
         return self._prearm_failure(now_s)[0] is None and self.health.can_arm
+
+    def health_published(self):
+        """The commander has published a health report (SYS_STATUS shows none present before)."""
+        return self.health.published
+
+    def gps_present(self):
+        """SYS_STATUS's GPS present and enabled bits: the reported estimator fuses GPS."""
+        return self.health.estimator_ready
 
     def unhealthy_sensors(self):
         """SYS_STATUS health bits the reported checks clear (the battery's, with a battery warning)."""
@@ -210,6 +228,14 @@ class Commander:
             return TEMPORARILY_REJECTED
         return self.request_mode(mode, now_s)
 
+    def return_to_launch(self, now_s):
+        """VEHICLE_CMD_NAV_RETURN_TO_LAUNCH, from a ground station or a mission's item (Commander::handle_command):
+        AUTO.RTL, "Returning to launch" when taken."""
+        result = self.request_mode('AUTO.RTL', now_s)
+        if result == ACCEPTED:
+            self._say(mavlink.MAV_SEVERITY_INFO, 'Returning to launch\t')
+        return result
+
     def terminate(self, now_s):
         """DO_FLIGHTTERMINATION with param1 > 0.5 (Commander::handle_command): DENIED while disarmed,
         else TERMINATION, the motors off, and no way out of it."""
@@ -229,11 +255,14 @@ class Commander:
         if arm:
             if self.armed:
                 return ACCEPTED
-            if not force:
+            # a command from a link always runs Commander::arm's stick checks, forced or not (run_preflight_checks
+            # is from_external || !forced); the force magic skips the others
+            reason, result = self.manual_control.arming_refusal(self.nav_mode, self.flags.manual_control_signal_lost)
+            if not force and not reason:
                 reason, result = self._arming_refusal(now_s)
-                if reason:
-                    self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Arming denied: ' + reason)
-                    return result
+            if reason:
+                self._say(mavlink.MAV_SEVERITY_CRITICAL, 'Arming denied: ' + reason)
+                return result
             self._arm(now_s)
             return ACCEPTED
         if not self.armed:
@@ -260,8 +289,8 @@ class Commander:
 
     def _prearm_failure(self, now_s):
         """(reason, MAV_RESULT) of the first failing pre-arm check, (None, ACCEPTED) when all pass."""
-        if not self.ready(now_s):
-            return 'system not ready (estimator initialising)', TEMPORARILY_REJECTED
+        if not self.ready(now_s):  # EKF2 has no position yet: modeCheck fails for every mode that needs one
+            return 'Resolve system health failures first\t', TEMPORARILY_REJECTED
         if self.failures:
             return 'Resolve system health failures first (%s)' % ', '.join(sorted(self.failures)), \
                 TEMPORARILY_REJECTED
@@ -314,21 +343,17 @@ class Commander:
         """A ground station's HEARTBEAT (MAV_TYPE_GCS from another system) on any link."""
         self.data_link.on_gcs_heartbeat(now_s)
 
-    def on_manual_control(self, now_s):
-        """MANUAL_CONTROL from a ground station (PX4 SITL's COM_RC_IN_MODE 1: MAVLink manual control only)."""
-        self.manual_control_s = now_s
+    def on_manual_control(self, now_s, sticks=None):
+        """MANUAL_CONTROL from a ground station, with its sticks (sim.manual_control.ManualControlSetpoint) when known."""
+        self.manual_control.on_sample(now_s, sticks)
+
+    def manual_control_signal(self):
+        """A ground station's MANUAL_CONTROL is still taken (sim.manual_control_input)."""
+        return self.manual_control.signal(self.now_s)
 
     def _rc_signal(self):
-        """Manual control is there: the simulated RC, or MANUAL_CONTROL that PX4's ManualControl still takes. Its
-        selector drops an input COM_RC_LOSS_T after its last sample, looking at each sample and, without one,
-        every MANUAL_CONTROL_RUN_S (ManualControl::Run's ScheduleDelayed(200_ms), ManualControlSelector): the
-        loss shows on the first look at or after COM_RC_LOSS_T (0.6 s for PX4 SITL's 0.5)."""
-        if self.rc:
-            return True
-        if self.manual_control_s is None:
-            return False
-        looks = math.ceil(self.params['COM_RC_LOSS_T'] / MANUAL_CONTROL_RUN_S - 1e-9)
-        return self.now_s - self.manual_control_s < looks * MANUAL_CONTROL_RUN_S - 1e-9
+        """Manual control is there: the simulated RC, or MANUAL_CONTROL that PX4's ManualControl still takes."""
+        return self.rc or self.manual_control_signal()
 
     # -- the periodic checks ------------------------------------------------------------------
 
@@ -373,7 +398,8 @@ class Commander:
         f.local_position_invalid = f.local_position_invalid_relaxed = f.global_position_invalid = invalid
 
     def _failing_checks(self):
-        return failing_checks(self.flags, self.data_link.lost, self.geofence_result, self.params)
+        return failing_checks(self.flags, self.data_link.lost, self.geofence_result, self.params,
+                              self.ready(self.now_s))
 
     def check_landing(self, now_s):
         """After the vehicle stepped: takeoff and landing detection, the auto-disarm timers."""

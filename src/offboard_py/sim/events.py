@@ -32,6 +32,11 @@ class TakeoffComplete(NamedTuple):
     """AUTO.TAKEOFF reached its altitude: the commander switches to AUTO.LOITER."""
 
 
+class ReturnToLaunch(NamedTuple):
+    """A mission's NAV_RETURN_TO_LAUNCH item, issued as that vehicle command to the commander (navigator's
+    mission_block.cpp issue_command): the commander switches to AUTO.RTL, which ends the mission."""
+
+
 class MissionCurrent(NamedTuple):
     seq: int
 

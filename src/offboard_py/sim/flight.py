@@ -1,7 +1,8 @@
 """The flight stack of the simulated PX4: commander, navigator, offboard setpoint and vehicle model, stepped together.
 
 `Flight.step(now_s, dt)` is one cycle of PX4's loop: the commander's checks, the setpoint of
-the mode flying now (the latest offboard setpoint in OFFBOARD, else the navigator's), the
+the mode flying now (the latest offboard setpoint in OFFBOARD, a ground station's sticks in the manual modes
+once MANUAL_CONTROL brought them (sim.manual_control), else the navigator's), the
 vehicle model, then the land detector's word back to the commander. Events from the
 commander and the navigator are routed here at once (arming starts the motors, a mode
 change moves the navigator) and queued in `events` for the autopilot to say on the link.
@@ -20,10 +21,11 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import failures
 from offboard_py.sim.battery_simulator import BatterySimulator
-from offboard_py.sim.commander import Commander
+from offboard_py.sim.commander import READY_S, Commander
 from offboard_py.sim.geofence import Geofence
+from offboard_py.sim.manual_control import CENTRED, FLOWN_MODES, ManualControl
 from offboard_py.sim.navigator import Navigator
-from offboard_py.sim.estimator import Estimator
+from offboard_py.sim.estimator import ESTIMATOR_FLAGS_READY, Estimator, estimator_flags
 from offboard_py.sim.vehicle import VehicleModel
 
 NAN3 = (float('nan'),) * 3
@@ -66,6 +68,9 @@ class Status(NamedTuple):
     home_set_s: float = None       # boot s when home was last set (HOME_POSITION.time_usec); None: not yet
     battery_warning: int = 0       # battery_status_s::WARNING_* (BATTERY_STATUS.charge_state)
     unhealthy_sensors: int = 0     # SYS_STATUS health bits the reported checks clear
+    health_published: bool = True  # the commander has published a health report (else SYS_STATUS: none present)
+    gps_present: bool = True       # the reported estimator fuses GPS (SYS_STATUS's GPS present bit)
+    estimator_flags: int = ESTIMATOR_FLAGS_READY  # ESTIMATOR_STATUS.flags
 
     @property
     def custom_mode(self):
@@ -86,7 +91,7 @@ class Status(NamedTuple):
 
 
 class Flight:
-    def __init__(self, params, frame, now_s, ready_delay_s=5.0, rc=False, ideal=False, seed=None):
+    def __init__(self, params, frame, now_s, ready_delay_s=READY_S, rc=False, ideal=False, seed=None):
         self.params = params
         self.frame = frame
         seed = params['MAV_SYS_ID'] if seed is None else seed
@@ -94,13 +99,16 @@ class Flight:
         self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
         self.navigator = Navigator(params, frame, self.vehicle)
         self.offboard_sp = None
+        self.manual_control = ManualControl(params)  # the manual modes' flight tasks (sim.manual_control)
         self.battery = BatterySimulator(params, now_s)
         self.geofence = Geofence(params)
         self.events = []
         # PX4 sets home as its estimator gets a position, before it is ready: 2.45 and 2.33 s after boot
         # in the two real-PX4 recordings (HOME_POSITION.time_usec, reference/conversations/takeoff-*-px4)
         self.home_first_s = min(HOME_SET_S, ready_delay_s)
-        self.home_set_s = None  # then, after an arming: when it was set again
+        self.home_set_s = None  # then, once the estimator is ready and after an arming: when it was set again
+        self.ready_delay_s = ready_delay_s
+        self.ready_seen = ready_delay_s <= self.home_first_s  # ready at boot: no second home
         self._set_home()
 
     def set_ideal(self, seed=None):
@@ -146,6 +154,9 @@ class Flight:
     def terminate(self, now_s):
         return self._routed(self.commander.terminate(now_s), now_s)
 
+    def return_to_launch(self, now_s):
+        return self._routed(self.commander.return_to_launch(now_s), now_s)
+
     def set_home(self, home, now_s):
         """MAV_CMD_DO_SET_HOME: `home` local NED, or None for where the vehicle is (HomePosition's
         setHomePosition, which needs a position estimate: TEMPORARILY_REJECTED before)."""
@@ -189,21 +200,46 @@ class Flight:
         self.commander.on_offboard_setpoint(now_s)
         self.commander.offboard_needs_position = any(value == value for value in sp.position)
 
+    def on_follow_target(self, position, velocity, now_s):
+        """FOLLOW_TARGET's target, local NED (m, m/s): what AUTO.FOLLOW_TARGET follows."""
+        self.navigator.follow.on_target(position, velocity, now_s)
+
     def on_gcs_heartbeat(self, now_s):
         self.commander.on_gcs_heartbeat(now_s)
 
-    def on_manual_control(self, now_s):
-        self.commander.on_manual_control(now_s)
+    def on_manual_control(self, now_s, sticks=None):
+        """MANUAL_CONTROL: the RC signal, and its sticks (sim.manual_control.ManualControlSetpoint) if given."""
+        self.commander.on_manual_control(now_s, sticks)
+
+    def _manual_setpoint(self, now_s):
+        """The setpoint of the manual mode flying, from a ground station's sticks (centred, as PX4's Sticks read
+        them, once its MANUAL_CONTROL is lost); None where the navigator's is flown: another mode, or no sticks
+        ever came (the simulated RC receiver has none)."""
+        c = self.commander
+        if c.nav_mode not in FLOWN_MODES or c.manual_control.sticks is None:
+            self.manual_control.stop()
+            return None
+        sticks = c.manual_control.sticks if c.manual_control_signal() else CENTRED
+        return self.manual_control.setpoint(c.nav_mode, sticks, self.vehicle, now_s)
 
     # -- the cycle -----------------------------------------------------------------------------
 
     def step(self, now_s, dt):
         c, v = self.commander, self.vehicle
         c.position_valid = v.estimator.position_valid(now_s, self.params['EKF2_NOAID_TOUT'] / 1e6)
+        if not self.ready_seen and c.ready(now_s):
+            # PX4 sets home again as EKF2 starts fusing GPS (3.79 and 3.80 s, the first one 2.33-2.45 s)
+            self.ready_seen = True
+            if not c.armed:
+                self._set_home()
+                self.home_set_s = now_s
         c.check(now_s)
         self._route(now_s)
+        manual_sp = self._manual_setpoint(now_s)
         if c.nav_mode == 'OFFBOARD' and self.offboard_sp is not None:
             sp = self.offboard_sp
+        elif manual_sp is not None:
+            sp = manual_sp
         else:
             sp = self.navigator.setpoint(c.nav_mode, c.armed, now_s)
             self._route(now_s)
@@ -247,6 +283,9 @@ class Flight:
             elif isinstance(event, ev.TakeoffComplete):
                 c.takeoff_complete()
                 continue
+            elif isinstance(event, ev.ReturnToLaunch):
+                c.return_to_launch(c.now_s if now_s is None else now_s)
+                continue
             self.events.append(event)
 
     def take_events(self):
@@ -284,7 +323,8 @@ class Flight:
                       v.yaw_rate, v.attitude(), v.specific_force_body(), m.seq, len(m.items),
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
                       self.home, c.rc, rtl, v.body_rates, c.logging(now_s), v.gyro, self.home_set(now_s),
-                      b.warning, c.unhealthy_sensors())
+                      b.warning, c.unhealthy_sensors(), c.health_published(), c.gps_present(),
+                      estimator_flags(now_s - c.boot_s, self.ready_delay_s, c.armed))
 
     def home_set(self, now_s):
         """Boot s when home was last set, or None before PX4 would have set it (home_first_s)."""

@@ -20,6 +20,10 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim.battery_simulator import WARNING_CRITICAL, WARNING_EMERGENCY, WARNING_LOW
 
 MIN_REPORTING_INTERVAL_S = 2.0  # Report's min_reporting_interval default
+# The first health_report after boot, in both recorded conversations from PX4's start (reference/
+# px4-sitl-boot-timeline.json): SYS_STATUS showed a zeroed report (present 0) until a message in 1.96-2.05 s
+# of boot; the next report, with the estimator ready, came at its 2 s interval after that
+FIRST_REPORT_S = 2.0
 
 
 class Check(NamedTuple):
@@ -44,6 +48,10 @@ BATTERY_CHECKS = {
 }
 NO_GCS_CHECK = Check('check_rc_dl_no_dllink', mavlink.MAV_SEVERITY_WARNING,
                      'Preflight Fail: No connection to the GCS', 0, True)
+# modeCheck.cpp, while EKF2 has no position yet (an event only: "Navigation error: No valid position estimate");
+# it marks the local position estimate unhealthy (SYS_STATUS's XY_POSITION_CONTROL) and stops arming
+ESTIMATOR_CHECK = Check('check_modes_local_pos', mavlink.MAV_SEVERITY_ERROR, None,
+                        mavlink.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL, True)
 GEOFENCE_CHECK = Check('check_gf_violation_custom_gf', mavlink.MAV_SEVERITY_CRITICAL,
                        'Geofence: approaching or outside geofence', 0, True)
 GEOFENCE_DISTANCE_CHECK = Check('check_gf_violation_max_hor_dist', mavlink.MAV_SEVERITY_CRITICAL,
@@ -52,11 +60,11 @@ GEOFENCE_ALTITUDE_CHECK = Check('check_gf_violation_max_alt', mavlink.MAV_SEVERI
                                 'Geofence: exceeding maximum altitude above Home', 0, True)
 
 
-def failing_checks(flags, gcs_connection_lost, geofence_result, params):
+def failing_checks(flags, gcs_connection_lost, geofence_result, params, estimator_ready=True):
     """The checks failing on these conditions (failsafe_flags_s, the data link, the navigator's geofence
-    breaches): batteryCheck, rcAndDataLinkCheck (only where NAV_DLL_ACT acts), geofenceCheck (only where
-    GF_ACTION does)."""
-    checks = []
+    breaches, the estimator's start): modeCheck's position check until EKF2 is ready, batteryCheck,
+    rcAndDataLinkCheck (only where NAV_DLL_ACT acts), geofenceCheck (only where GF_ACTION does)."""
+    checks = [] if estimator_ready else [ESTIMATOR_CHECK]
     if flags.battery_warning in BATTERY_CHECKS:
         checks.append(BATTERY_CHECKS[flags.battery_warning])
     if gcs_connection_lost and params['NAV_DLL_ACT'] > 0:
@@ -70,13 +78,26 @@ def failing_checks(flags, gcs_connection_lost, geofence_result, params):
 
 
 class HealthReport:
-    """The last reported health and the rate limit of reports."""
+    """The last reported health and the rate limit of reports. Nothing is reported before `first_s`:
+    until then SYS_STATUS shows a zeroed health_report (no sensor present, every one healthy)."""
 
-    def __init__(self):
+    def __init__(self, first_s=None):
         self.current = frozenset()
         self.reported = frozenset()  # what the last published health_report held
         self.last_report_s = None
+        self.first_s = first_s
         self.unreported = False
+
+    @property
+    def published(self):
+        """A health_report has been published (SYS_STATUS's present and enabled words come from it)."""
+        return self.last_report_s is not None
+
+    @property
+    def estimator_ready(self):
+        """The published report has the estimator fusing GPS: estimatorCheck.cpp sets the GPS present
+        only then (its health bit is set from the start: no check fails on it)."""
+        return self.published and ESTIMATOR_CHECK not in self.reported
 
     @property
     def unhealthy_bits(self):
@@ -109,6 +130,11 @@ class HealthReport:
 
     def _report(self, now_s, changed, force):
         difference = self.unreported or changed
+        if self.first_s is not None and now_s < self.first_s - 1e-9:
+            self.unreported = self.unreported or difference
+            return False
+        if self.last_report_s is None:  # the first report: published whatever it holds
+            difference = True
         if (self.last_report_s is not None and now_s < self.last_report_s + MIN_REPORTING_INTERVAL_S
                 and not force):
             self.unreported = self.unreported or difference

@@ -15,12 +15,21 @@ from offboard_py.dialect import check_pymavlink_version
 from offboard_py.signing import SigningKeyError
 from offboard_py.simtime import SimClock, speed_option
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
+from offboard_py.sim.commander import READY_S
 from offboard_py.sim.loop import run_together
 from offboard_py.sim.geo import LocalFrame
 from offboard_py.sim.param_store import ParamRejected
 
 
 VEHICLE_SPACING_M = 3.0  # --vehicles: north of each other, as multi_uav.launch spawns them
+INSTANCE_FIELD = '{instance}'  # in --log-dir: the vehicle's instance number
+
+
+def default_log_dir(environ=os.environ):
+    """Where PX4 SITL would have its log/ if its working folder were $ROS_HOME/sim_px4/<instance> (ROS_HOME
+    unset: ~/.ros), as px4_sih.py runs real PX4 in $ROS_HOME/px4_sih/<instance>."""
+    ros_home = environ.get('ROS_HOME') or os.path.join(os.path.expanduser('~'), '.ros')
+    return os.path.join(ros_home, 'sim_px4', INSTANCE_FIELD, 'log')
 
 
 class _BenchLog:
@@ -145,9 +154,10 @@ def parser():
     p.add_argument('--gcs-remote-port', type=int,
                    help='UDP port the ground-station link sends to until a client talks to it (default 14550)')
     p.add_argument('--no-gcs', action='store_true', help='no ground-station link (only the onboard link)')
-    p.add_argument('--ready-delay', type=float, default=4.0,
-                   help='seconds after boot before the pre-flight checks pass and arming is allowed '
-                        '(default 4, as PX4 SITL)')
+    p.add_argument('--ready-delay', type=float, default=READY_S,
+                   help='seconds after boot before the estimator is ready and arming is allowed '
+                        '(default %g, as PX4 SITL; SYS_STATUS says so at the health report\'s next 2 s interval)'
+                        % READY_S)
     p.add_argument('--rc', action='store_true', help='simulate an RC link (sticks centred)')
     p.add_argument('--ideal', action='store_true',
                    help='an ideal vehicle: no estimator noise, no hover wander, local z 0 on the ground '
@@ -174,6 +184,11 @@ def parser():
     p.add_argument('--allow-sysid', type=_system_ids, default=(), metavar='ID[,ID...]',
                    help='take commands, setpoints, parameter and mission writes only from these source '
                         'system ids (default: from anyone)')
+    p.add_argument('--log-dir', default=default_log_dir(), metavar='DIR',
+                   help='PX4\'s log folder: a ULog file for each flight as PX4 SITL writes one (SDLOG_MODE), in '
+                        'DIR/YYYY-MM-DD/HH_MM_SS.ulg, listed and downloaded by the MAVLink log protocol; '
+                        '%s is the vehicle\'s instance (default %s); \'\' writes no logs'
+                        % (INSTANCE_FIELD, default_log_dir().replace('%', '%%')))
     p.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     return p
 
@@ -196,6 +211,10 @@ def main(argv=None):
     if not 1 <= args.steps_per_wakeup <= 10:
         logging.error('--steps-per-wakeup must be 1..10, got %d', args.steps_per_wakeup)
         return 2
+    if args.vehicles > 1 and args.log_dir and INSTANCE_FIELD not in args.log_dir:
+        logging.error('--log-dir %s would hold the logs of all %d vehicles: put %s in it for each vehicle\'s '
+                      'instance', args.log_dir, args.vehicles, INSTANCE_FIELD)
+        return 2
     if args.vehicles > 1 and any(port is not None for port in (args.local_port, args.remote_port, args.gcs_port)):
         logging.error('--local-port, --remote-port and --gcs-port name one vehicle\'s ports: with --vehicles, '
                       'each vehicle takes its instance\'s (14580+N, 14540+N, 18570+N)')
@@ -214,7 +233,8 @@ def main(argv=None):
                 rc=args.rc, rate_hz=args.rate, steps_per_wakeup=args.steps_per_wakeup, clock=clock,
                 pack_datagrams=args.pack_datagrams, signing_key_file=args.signing_key,
                 allowed_systems=args.allow_sysid, gcs=not args.no_gcs, gcs_port=args.gcs_port,
-                gcs_remote_port=args.gcs_remote_port))
+                gcs_remote_port=args.gcs_remote_port,
+                log_dir=os.path.expanduser(args.log_dir).replace(INSTANCE_FIELD, str(instance))))
     except (ParamRejected, SigningKeyError, ValueError) as err:
         logging.error('%s', err)
         return 2

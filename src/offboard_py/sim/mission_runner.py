@@ -1,6 +1,6 @@
 """The mission's items flown, as PX4's navigator Mission does: NAV_TAKEOFF, NAV_WAYPOINT (acceptance
-radius, hold time, passed at PX4's corner speed), NAV_LOITER_TIME, NAV_LOITER_UNLIM, NAV_LAND and
-NAV_RETURN_TO_LAUNCH; the reached items reported. Pure: the vehicle model and the time are passed in.
+radius, hold time, passed at PX4's corner speed), NAV_LOITER_TIME, NAV_LOITER_UNLIM, NAV_LAND, and
+NAV_RETURN_TO_LAUNCH handed to the commander (AUTO.RTL); the reached items reported. Pure: the vehicle model and the time are passed in.
 
 PX4 flies some items through work items of its own (src/modules/navigator/mission.cpp at 02e73e3b6f,
 Mission::setActiveMissionItems, handleTakeoff, handleLanding; mission_base.cpp on_active):
@@ -18,10 +18,14 @@ reference/traces/px4-sitl-mission-no-takeoff-item-{1,2}.csv (reference/px4-sitl-
 """
 
 from offboard_py.dialect import mavlink
+from offboard_py.sim import events as ev
 from offboard_py.sim import vehicle as vm
 from offboard_py.sim.flyer import Flyer, dist_xy, land_setpoint
 from offboard_py.sim.trajectory import corner_speed
 
+# NAV_RETURN_TO_LAUNCH is no item PX4's mission flies: mission_block.cpp issues it as a vehicle command
+# (VEHICLE_CMD_NAV_RETURN_TO_LAUNCH: Commander switches to AUTO.RTL, "Returning to launch") and counts it
+# reached at once (is_mission_item_reached_or_completed); the return is AUTO.RTL's, at RTL_RETURN_ALT
 NAV_COMMANDS = frozenset((mavlink.MAV_CMD_NAV_TAKEOFF, mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME,
                           mavlink.MAV_CMD_NAV_LOITER_UNLIM, mavlink.MAV_CMD_NAV_LAND,
                           mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH))
@@ -35,7 +39,8 @@ TAKEOFF, MOVE_TO_LAND, LAND = 'takeoff', 'move_to_land', 'land'
 
 class MissionRunner:
     """Flies mission items: NAV_TAKEOFF, NAV_WAYPOINT (acceptance radius, hold time), NAV_LOITER_TIME,
-    NAV_LOITER_UNLIM, NAV_LAND and NAV_RETURN_TO_LAUNCH; other items (DO_*) are passed over."""
+    NAV_LOITER_UNLIM and NAV_LAND; NAV_RETURN_TO_LAUNCH goes to the commander (`commands`); other items
+    (DO_*) are passed over."""
 
     def __init__(self, params, frame):
         self.params, self.frame = params, frame
@@ -55,6 +60,7 @@ class MissionRunner:
         self._land_reported = False  # the landing item was reported reached over its point
         self._need_takeoff = True  # MissionBase's _need_takeoff: owed at the start and after a landing
         self.texts = []          # (MAV_SEVERITY, text) for the pilot, taken by the navigator
+        self.commands = []       # vehicle commands the items issue to the commander (ev.ReturnToLaunch)
         self.cruise_speed = None  # m/s a DO_CHANGE_SPEED set for the legs; None: MPC_XY_CRUISE
 
     def load(self, items, seq=0):
@@ -143,7 +149,10 @@ class MissionRunner:
             self.work = None  # up: the item itself is flown now, as a waypoint (not reported)
             self._previous = tuple(vehicle.position)
         if it.command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return self._fly_then_land((self.home[0], self.home[1]), vehicle, now_s)
+            self.commands.append(ev.ReturnToLaunch())
+            self._advance(vehicle)
+            self._hold_point = tuple(vehicle.position)
+            return self.flyer.direct(vm.hold(self._hold_point, vehicle.yaw))
         target = self._target(it, vehicle)
         if it.command == mavlink.MAV_CMD_NAV_LAND:
             return self._land(target, vehicle, now_s)
@@ -228,15 +237,3 @@ class MissionRunner:
     def taking_off(self):
         """A TAKEOFF setpoint is flown (EXTENDED_SYS_STATE TAKEOFF)."""
         return self.work == TAKEOFF and not self.finished
-
-    def _fly_then_land(self, target, vehicle, now_s):
-        pos = vehicle.position
-        if dist_xy(pos, target) > self.params['NAV_ACC_RAD'] and not vehicle.landed:
-            return self.flyer.fly_to(vehicle, (target[0], target[1], pos[2] if self.flyer.trajectory is None
-                                               else self.flyer.trajectory.position[2]), now_s)
-        if vehicle.landed:
-            self._advance()
-            self.finished = self.landed_at_end = True
-            self._need_takeoff = True
-            return self.flyer.direct(vm.hold((target[0], target[1], vehicle.ground_z), vehicle.yaw))
-        return self.flyer.direct(land_setpoint(self.params, target, vehicle))

@@ -10,6 +10,7 @@
 - AUTO.LAND: descend where the mode began at PX4's landing speeds (sim.flyer.land_speed).
 - AUTO.MISSION: fly the mission items (sim.mission_runner), reporting reached items; waypoints
   are reached within NAV_ACC_RAD / NAV_MC_ALT_RAD and passed at PX4's corner speed.
+- AUTO.FOLLOW_TARGET: follow the target of the FOLLOW_TARGET messages (sim.follow_target).
 Flights between points follow PX4's jerk-limited trajectory (sim.flyer, sim.trajectory).
 Altitudes are relative to `home` (local NED), which the flight stack sets at arming.
 Pure: the vehicle model and the time are passed in; what must be said goes to `events`.
@@ -22,67 +23,15 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import vehicle as vm
 from offboard_py.sim.flyer import Flyer, land_setpoint, land_speed
+from offboard_py.sim.follow_target import FollowTarget
 from offboard_py.sim.mission_runner import MissionRunner
+from offboard_py.sim.rtl import rtl_return_down
 
 
 # The gimbal commands of a return left 0.16-0.4 s after its setpoint took over (reference/conversations:
 # POSITION_TARGET_LOCAL_NED changed at 56.36-56.46 s and 56.76-56.96 s, COMMAND_LONG 1001 at 56.62 and 57.17 s),
 # 1.29-1.37 s after the last setpoint
 GIMBAL_DELAY_S = 0.25
-
-
-def rtl_return_height(params, distance):
-    """PX4's return altitude above home from `distance` (m) away: RTL_RETURN_ALT; inside
-    RTL_MIN_DIST no higher than the RTL_CONE_ANG cone; at least 2 NAV_ACC_RAD outside the
-    acceptance radius, 2 x the distance inside it."""
-    acceptance = params['NAV_ACC_RAD']
-    height = params['RTL_RETURN_ALT']
-    if distance <= acceptance:
-        return 2.0 * distance
-    cone = params['RTL_CONE_ANG']
-    if cone > 0 and distance <= params['RTL_MIN_DIST']:
-        half_angle = math.radians(min(max(cone, 1.0), 89.0))
-        height = min(height, distance / math.tan(half_angle))
-    return max(height, 2.0 * acceptance)
-
-
-def rtl_return_down(params, position, home):
-    """The altitude PX4's RTL returns at from `position`, as local z (NED): the return altitude
-    for its distance from home, or where the vehicle is if higher (RTL never descends to return)."""
-    distance = math.hypot(position[0] - home[0], position[1] - home[1])
-    return min(home[2] - rtl_return_height(params, distance), position[2])
-
-
-def rtl_time_estimate(params, position, home, landed, rtl=None):
-    """PX4's estimate of the time a direct return home (RTL_TYPE 0, multicopter) takes from
-    `position` (local NED), in s, or None when PX4 has none (landed: PX4's RTL starts idle; its
-    estimate is then invalid). `rtl`: (phase, return altitude as local z) while AUTO.RTL flies,
-    whose phase the estimate starts from; else it starts where PX4's RTL would: climbing (0 m
-    when at or above the return altitude), then flying home. Climbs at MPC_Z_V_AUTO_UP, flies at
-    MPC_XY_CRUISE, descends to RTL_DESCEND_ALT (or the return altitude, if lower), waits
-    RTL_LAND_DELAY (a negative delay waits for good, and the landing is not counted), lands at
-    MPC_Z_V_AUTO_DN (navigator's RtlDirect::calc_rtl_time_estimate with lib/rtl's estimator)."""
-    if landed:
-        return None
-    height = home[2] - position[2]
-    distance = math.hypot(position[0] - home[0], position[1] - home[1])
-    phase, return_down = rtl if rtl is not None else ('climb', rtl_return_down(params, position, home))
-    return_height = home[2] - return_down
-    down_speed = params['MPC_Z_V_AUTO_DN']
-    loiter_height = min(params['RTL_DESCEND_ALT'], return_height)
-    time_s = 0.0
-    if phase == 'climb':
-        time_s += max(0.0, return_height - height) / params['MPC_Z_V_AUTO_UP']
-        height = max(height, return_height)
-    if phase in ('climb', 'return'):
-        time_s += distance / params['MPC_XY_CRUISE']
-    if phase != 'land':
-        time_s += max(0.0, height - loiter_height) / down_speed
-        height = min(height, loiter_height)
-        if params['RTL_LAND_DELAY'] < 0:
-            return time_s
-        time_s += params['RTL_LAND_DELAY']
-    return time_s + max(0.0, height) / down_speed
 
 
 class NavigatorMode:
@@ -246,6 +195,8 @@ class MissionMode(NavigatorMode):
         for severity, text in nav.mission.texts:
             nav.events.append(ev.StatusText(severity, text))
         nav.mission.texts.clear()
+        nav.events.extend(nav.mission.commands)
+        nav.mission.commands.clear()
         for seq in nav.mission.take_reached():
             nav.events.append(ev.ItemReached(seq))
             if not nav.mission.finished:
@@ -257,6 +208,17 @@ class MissionMode(NavigatorMode):
 
     def taking_off(self):
         return self.nav.mission.taking_off()
+
+
+class FollowTargetMode(NavigatorMode):
+    """AUTO.FOLLOW_TARGET: PX4's follow-me (sim.follow_target), on the target the FOLLOW_TARGET messages give."""
+
+    def on_activation(self):
+        self.nav.follow.reset()
+
+    def setpoint(self, armed, now_s):
+        nav = self.nav
+        return nav.follow.setpoint(nav.vehicle, nav.home, nav.params, now_s)
 
 
 class Navigator:
@@ -276,8 +238,10 @@ class Navigator:
         self.rtl = Rtl(self)
         land = Land(self)
         # AUTO.PRECLAND with no landing target in sight lands where it is, as PX4's precland falls back
+        self.follow = FollowTarget()
         self.modes = {'AUTO.LOITER': self.loiter, 'AUTO.TAKEOFF': self.takeoff, 'AUTO.LAND': land,
-                      'AUTO.PRECLAND': land, 'AUTO.RTL': self.rtl, 'AUTO.MISSION': MissionMode(self)}
+                      'AUTO.PRECLAND': land, 'AUTO.RTL': self.rtl, 'AUTO.MISSION': MissionMode(self),
+                      'AUTO.FOLLOW_TARGET': FollowTargetMode(self)}
         self.hold = NavigatorMode(self)  # the modes without a setpoint of their own
         self.active = self.hold
         self._idle_sent = False  # the return's idle item went out for this landing
@@ -359,14 +323,21 @@ class Navigator:
             self.flyer.direct(None)  # a new trajectory from where the vehicle is
 
     def takeoff_height(self, altitude_amsl, home_alt):
-        """NAV_TAKEOFF's altitude as a height above home, or MIS_TAKEOFF_ALT when it is NaN or too low."""
-        if math.isfinite(altitude_amsl):
-            wanted = altitude_amsl - home_alt
-            if wanted > self.home[2] - self.vehicle.position[2] + 0.5:
-                return wanted
-            self.events.append(ev.StatusText(mavlink.MAV_SEVERITY_WARNING,
-                                             'Takeoff altitude below the vehicle, using MIS_TAKEOFF_ALT'))
-        return self.params['MIS_TAKEOFF_ALT']
+        """NAV_TAKEOFF's altitude as a height above home (`home_alt` AMSL), as navigator/takeoff.cpp's
+        set_takeoff_position takes it: NaN is MIS_TAKEOFF_ALT above the vehicle ("Using default takeoff
+        altitude"); an altitude below the vehicle is where the vehicle is ("Already higher than takeoff
+        altitude": PX4 does not descend, and on the ground it stays there)."""
+        here = self.home[2] - self.vehicle.estimate[0][2]  # the estimate, as PX4 reads its global position
+        if not math.isfinite(altitude_amsl):
+            default = self.params['MIS_TAKEOFF_ALT']
+            self.events.append(ev.StatusText(mavlink.MAV_SEVERITY_INFO, 'Using default takeoff altitude: %.1f m\t'
+                                             % default))
+            return here + default
+        wanted = altitude_amsl - home_alt
+        if wanted < here:
+            self.events.append(ev.StatusText(mavlink.MAV_SEVERITY_CRITICAL, 'Already higher than takeoff altitude\t'))
+            return here
+        return wanted
 
     def set_takeoff_height(self, height):
         v = self.vehicle

@@ -177,6 +177,10 @@ class VehicleModel:
             flying = control.flying()
             if flying:
                 thrust_sp = control.thrust(sp, self.estimate, self.acceleration, dt)
+                if self.land_detector.ground_contact and control.takeoff_state == 'flight':
+                    # PX4's flying_but_ground_contact: no corrections, the least thrust, no integrator windup
+                    thrust_sp = [0.0, 0.0, -p['MPC_THR_MIN']]
+                    control.integral = [0.0, 0.0, 0.0]
                 if is_set(sp.yaw):
                     yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
                 else:
@@ -207,7 +211,9 @@ class VehicleModel:
         self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
         # at rest with the motors off: the quiet estimate and IMU recorded on the ground (sections 2
         # and 7 were disarmed); with the motors on the controller flies the full noise, as in the air
-        resting = self._ground(now_s) and not self.motors_on
+        on_ground = self._ground(now_s)
+        resting = on_ground and not self.motors_on
+        self.estimator.step_errors(dt, not on_ground and self.motors_on)
         self.estimate = self.estimator.measure(self.position, self.velocity, resting)
         self._land_detector(sp, now_s)
         self._attitude = None
@@ -308,6 +314,7 @@ class VehicleModel:
         """The flat ground at ground_z; True while the vehicle rests on it."""
         gz = self.ground_z
         if self.position[2] >= gz and (self.velocity[2] >= 0.0 or self.acceleration[2] >= 0.0):
+            touchdown_vz = self.velocity[2]
             # touching down or resting: the ground takes the load and stops the vehicle, levels it
             # and stops its turning (SIH's ground zeroes the body rates)
             self.position[2] = gz
@@ -317,6 +324,8 @@ class VehicleModel:
             self.tilt_rates[0] = self.tilt_rates[1] = self.tilt_rates_dot[0] = self.tilt_rates_dot[1] = 0.0
             if not self.ground_contact:
                 self.ground_contact, self.contact_since_s = True, now_s
+                if self.motors_on:
+                    self.estimator.touchdown(touchdown_vz)
             return True
         if self.position[2] < gz - 0.02:
             self.ground_contact, self.contact_since_s = False, None

@@ -71,7 +71,7 @@ class SimProcess(OutputProcess):
     `clock` is its simulated clock; its onboard link binds `fcu_port` and sends to `bridge_port`
     (where a client listens: `url`). Its ground-station link sends to the instance's extra port
     GCS_EXTRA_PORT, `gcs_port` (not to 14550, which tests running side by side would share).
-    `client` is the Client start_simulated_px4() attached, if any."""
+    `client` is the Client start_simulated_px4() attached, if any. It writes no ULog unless ARGS give --log-dir."""
 
     def __init__(self, instance, *args):
         self.instance = instance
@@ -81,6 +81,8 @@ class SimProcess(OutputProcess):
         self.gcs_port = ports.extra_port(instance, GCS_EXTRA_PORT)
         self.url = 'udpin:127.0.0.1:%d' % self.bridge_port
         self.client = None
+        if not any(arg == '--log-dir' or arg.startswith('--log-dir=') for arg in args):
+            args += ('--log-dir', '')  # a test's simulator writes no ULog unless it asks for one
         speed = speed_in(args)
         if speed is None:
             speed = speed_from_env(1.0)

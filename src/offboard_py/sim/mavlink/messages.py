@@ -16,7 +16,7 @@ from offboard_py import frames, px4_modes, wire
 from offboard_py.dialect import mavlink
 from offboard_py.sim.mavlink.sensor_messages import UINT16_UNKNOWN, SensorMessages
 from offboard_py.sim.mavlink.system_messages import UID_BASE, SystemMessages
-from offboard_py.sim.navigator import rtl_time_estimate
+from offboard_py.sim.rtl import rtl_time_estimate
 from offboard_py.sim.vehicle import quaternion_from_thrust
 
 # SYS_STATUS as PX4 SITL (SIH quadrotor) reports it: present 0x0300402F, enabled 0x0301402F,
@@ -77,10 +77,30 @@ def position_target_type_mask(position, velocity, acceleration, yaw, yaw_rate):
     return mask
 
 
+# Before the commander's first health report, SYS_STATUS.hpp fills a zeroed health_report: no component
+# present or enabled, every one healthy (0x0321C83F in both recorded conversations from PX4's start)
+SENSORS_HEALTHY_UNREPORTED = SENSORS_HEALTHY | mavlink.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+
+
 def sensors_health(prearm_ok, unhealthy=0):
     """SYS_STATUS onboard_control_sensors_health: PREARM_CHECK only while the arming checks pass; the
     sensors a reported check marks unhealthy cleared (SYS_STATUS.hpp fillOutComponent)."""
     return (SENSORS_HEALTHY & ~unhealthy) | (mavlink.MAV_SYS_STATUS_PREARM_CHECK if prearm_ok else 0)
+
+
+def sensors_words(st):
+    """SYS_STATUS's (present, enabled, health) from the published health report, as SYS_STATUS.hpp fills them:
+    nothing present before the first report; the GPS present (and so enabled) only once the estimator fuses
+    it (estimatorCheck.cpp); the logger's bit leaves present and enabled while it is stopped, health keeps it."""
+    if not st.health_published:
+        return 0, 0, SENSORS_HEALTHY_UNREPORTED
+    present = SENSORS_PRESENT
+    if not st.gps_present:
+        present &= ~mavlink.MAV_SYS_STATUS_SENSOR_GPS
+    if not st.logging:
+        present &= ~LOGGING_BITS
+    enabled = present | (SENSORS_ENABLED & ~SENSORS_PRESENT)
+    return present, enabled, sensors_health(st.prearm_ok, st.unhealthy_sensors)
 
 
 def battery_charge_state(warning):
@@ -170,12 +190,7 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
         return self.current_mode(st)
 
     def _sys_status(self, st, now_s):
-        # the logger's bit leaves present and enabled while it is stopped; health keeps it (as PX4 SITL)
-        logging = LOGGING_BITS if st.logging else 0
-        return self.mav.sys_status_encode((SENSORS_PRESENT & ~LOGGING_BITS) | logging,
-                                          (SENSORS_ENABLED & ~LOGGING_BITS) | logging,
-                                          sensors_health(st.prearm_ok, st.unhealthy_sensors),
-                                          LOAD_PERMILLE, int(round(st.battery_voltage * 1000)), BATTERY_CURRENT_CA,
+        return self.mav.sys_status_encode(*sensors_words(st), LOAD_PERMILLE, int(round(st.battery_voltage * 1000)), BATTERY_CURRENT_CA,
                                           int(math.ceil(st.battery_remaining * 100)), 0, 0, 0, 0, 0, 0)
 
     def _battery_status(self, st, now_s):

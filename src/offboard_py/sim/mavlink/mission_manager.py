@@ -15,6 +15,7 @@ only the mission is flown.
 Flying the items is the navigator's job (sim.mission_runner.MissionRunner).
 """
 
+import math
 from collections import namedtuple
 
 from offboard_py.dialect import mavlink
@@ -67,6 +68,50 @@ _FLOAT_FRAMES = {mavlink.MAV_FRAME_GLOBAL_INT: mavlink.MAV_FRAME_GLOBAL,
                  mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
                  mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT}
 
+# format_mavlink_mission_item: PX4 keeps a positional item as its own mission_item_s (relative or absolute
+# altitude, and the fields its command has) and sends it back in the frame of the download's message,
+# MISSION_ITEM_INT (_INT frames) or MISSION_ITEM, with only those fields; yaw (param4) as wrap_2pi(radians(x)) in
+# degrees. Per command: the params sent back, as (param index, how it was kept); the others are 0
+_KEPT, _FLAG, _YAW = 'kept', 'flag', 'yaw'
+DOWNLOADED_PARAMS = {
+    mavlink.MAV_CMD_NAV_WAYPOINT: ((1, _KEPT), (2, _KEPT), (4, _YAW)),
+    mavlink.MAV_CMD_NAV_LOITER_UNLIM: ((3, _KEPT), (4, _YAW)),
+    mavlink.MAV_CMD_NAV_LOITER_TIME: ((1, _KEPT), (2, _FLAG), (3, _KEPT), (4, _FLAG)),
+    mavlink.MAV_CMD_NAV_LAND: ((2, _KEPT), (4, _YAW)),
+    mavlink.MAV_CMD_NAV_TAKEOFF: ((4, _YAW),),
+    mavlink.MAV_CMD_NAV_LOITER_TO_ALT: ((1, _FLAG), (2, _KEPT), (4, _FLAG)),
+    mavlink.MAV_CMD_NAV_VTOL_TAKEOFF: ((4, _YAW),),
+    mavlink.MAV_CMD_NAV_VTOL_LAND: ((4, _YAW),),
+}
+RELATIVE_FRAMES = frozenset((mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT))
+
+
+def _yaw_degrees(degrees):
+    """wrap_2pi(radians(x)) back in degrees, as float32 keeps it (NaN stays NaN)."""
+    if degrees != degrees:
+        return degrees
+    return math.degrees(math.radians(degrees) % (2.0 * math.pi))
+
+
+def downloaded(it, int_mode):
+    """(frame, param1..param4) of a stored mission item as PX4 sends it back: MAV_FRAME_MISSION items as they
+    came, positional ones in GLOBAL_RELATIVE_ALT(_INT) or GLOBAL(_INT) by their altitude and the download's
+    message, with the fields PX4 keeps for the command."""
+    params = (it.param1, it.param2, it.param3, it.param4)
+    if it.frame not in GLOBAL_FRAMES | INT_FRAMES or it.command not in DOWNLOADED_PARAMS:
+        return it.frame, params
+    relative = it.frame in RELATIVE_FRAMES
+    if int_mode:
+        frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT if relative else mavlink.MAV_FRAME_GLOBAL_INT
+    else:
+        frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT if relative else mavlink.MAV_FRAME_GLOBAL
+    out = [0.0, 0.0, 0.0, 0.0]
+    for index, kept in DOWNLOADED_PARAMS[it.command]:
+        value = params[index - 1]
+        out[index - 1] = _yaw_degrees(value) if kept == _YAW else float(value > 0) if kept == _FLAG else value
+    return frame, tuple(out)
+
+
 Item = namedtuple('Item', 'frame command autocontinue param1 param2 param3 param4 x y z')
 Item.__doc__ = 'A stored item: x/y are degrees (global frames) or metres (local), z metres.'
 
@@ -82,6 +127,30 @@ def item_from_message(msg):
     x, y = float(msg.x) / scale, float(msg.y) / scale
     return Item(msg.frame, msg.command, msg.autocontinue, msg.param1, msg.param2, msg.param3, msg.param4,
                 x, y, float(msg.z))
+
+
+class ReachedRepeats:
+    """MISSION_ITEM_REACHED said again, as each link's MavlinkMissionManager::send() does: with MISSION_CURRENT at
+    its 1 Hz (_slow_rate_limiter), the last reached seq another REACHED_REPEATS times while a mission is loaded;
+    a new mission forgets it (_last_reached = -1)."""
+
+    REACHED_REPEATS = 10
+
+    def __init__(self):
+        self.seq, self.sent = -1, 0
+
+    def reached(self, seq):
+        self.seq, self.sent = seq, 0
+
+    def forget(self):
+        self.seq = -1
+
+    def due(self, mission_count):
+        """The seq to say again with this MISSION_CURRENT, or None."""
+        if mission_count <= 0 or self.seq < 0 or self.sent >= self.REACHED_REPEATS:
+            return None
+        self.sent += 1
+        return self.seq
 
 
 class MissionManager:
@@ -272,15 +341,15 @@ class MissionManager:
     def _item_message(self, msg, it):
         partner = (msg.get_srcSystem(), msg.get_srcComponent())
         current = int(msg.mission_type == MISSION_TYPE_MISSION and msg.seq == self.current)
+        frame, params = downloaded(it, self.int_mode)
         if self.int_mode:
             scale = _int_scale(it.frame)
             x, y = int(round(it.x * scale)), int(round(it.y * scale))
-            return self.mav.mission_item_int_encode(partner[0], partner[1], msg.seq, it.frame, it.command, current,
-                                                    it.autocontinue, it.param1, it.param2, it.param3, it.param4,
-                                                    x, y, it.z, msg.mission_type)
-        return self.mav.mission_item_encode(partner[0], partner[1], msg.seq, _FLOAT_FRAMES.get(it.frame, it.frame),
-                                            it.command, current, it.autocontinue, it.param1, it.param2,
-                                            it.param3, it.param4, it.x, it.y, it.z, msg.mission_type)
+            return self.mav.mission_item_int_encode(partner[0], partner[1], msg.seq, frame, it.command, current,
+                                                    it.autocontinue, *params, x, y, it.z, msg.mission_type)
+        return self.mav.mission_item_encode(partner[0], partner[1], msg.seq, _FLOAT_FRAMES.get(frame, frame),
+                                            it.command, current, it.autocontinue, *params, it.x, it.y, it.z,
+                                            msg.mission_type)
 
     def on_ack(self, msg, now_s):
         """The partner's MISSION_ACK: a download is over; an upload cancelled by the client ends."""

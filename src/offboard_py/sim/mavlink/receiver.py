@@ -14,9 +14,10 @@ import struct
 from offboard_py import px4_modes
 from offboard_py.dialect import MAV_CMD_INJECT_FAILURE, mavlink
 from offboard_py.signing import write_signing_key
-from offboard_py.sim import offboard_input
+from offboard_py.sim import logged_topics, manual_control, offboard_input
 from offboard_py.sim.mavlink import streams
 from offboard_py.sim.mavlink.command_sender import ACK_DELAY_S
+from offboard_py.sim.mavlink.log_handler import LogHandler
 from offboard_py.sim.mavlink.timesync import TimesyncAnswer
 from offboard_py.sim.mavlink.vehicle_commands import (ACCEPTED, DENIED, FAILED, UNSUPPORTED, VehicleCommands,
                                                       c_int_round, command_position)
@@ -62,6 +63,8 @@ class Receiver:
             mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._cmd_request_message,
             mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._cmd_request_message,
         })
+        # PX4's MavlinkLogHandler, one per link (sim.mavlink.log_handler); the autopilot gives each its turn
+        self.log_handlers = {link: LogHandler(px4.log_root, self.mav, link) for link in self.links}
         for link in self.links:
             self._register_on(link)
 
@@ -85,6 +88,7 @@ class Receiver:
         control('PARAM_SET', self.parameters.on_set)
         control('SETUP_SIGNING', self._on_setup_signing)
         control('MANUAL_CONTROL', self._on_manual_control)
+        control('FOLLOW_TARGET', self._on_follow_target)
         control('MISSION_COUNT', self._mission(lambda m, t: self.mission_manager.on_count(m, t)))
         control('MISSION_ITEM_INT', self._mission(lambda m, t: self.mission_manager.on_item(m, t)))
         control('MISSION_ITEM', self._mission(lambda m, t: self.mission_manager.on_item(m, t)))
@@ -100,6 +104,11 @@ class Receiver:
         on('MISSION_ACK', self._mission(lambda m, t: self.mission_manager.on_ack(m, t)))
         on('TIMESYNC', self._on_timesync)
         on('PING', self._on_ping)
+        log_handler = self.log_handlers[link]
+        on('LOG_REQUEST_LIST', log_handler.on_request_list)
+        on('LOG_REQUEST_DATA', log_handler.on_request_data)
+        on('LOG_REQUEST_END', log_handler.on_request_end)
+        control('LOG_ERASE', log_handler.on_erase)
 
     def _control(self, msg_type, handler):
         """`handler` for the allowed systems only."""
@@ -126,6 +135,9 @@ class Receiver:
     def _ack(self, msg, command, result, delay_s=ACK_DELAY_S):
         """COMMAND_ACK on the request's link, `delay_s` (simulated) after now (sim.mavlink.command_sender)."""
         self.command_sender.ack(self.px4.reply_link, msg, command, result, delay_s)
+        if self.px4.logger is not None:
+            self.px4.logger.on_vehicle_command_ack(logged_topics.vehicle_command_ack(
+                self.px4.t(), command, result, (msg.get_srcSystem(), msg.get_srcComponent())))
 
     def _on_heartbeat(self, msg):
         self.px4.texts.on_heartbeat(self.px4.reply_link, msg, self.px4.t())
@@ -133,13 +145,27 @@ class Receiver:
             self.flight.on_gcs_heartbeat(self.px4.t())  # handle_message_heartbeat: telemetry_status's GCS
 
     def _on_manual_control(self, msg):
-        """A ground station's joystick (handle_message_manual_control: for this system only)."""
-        if msg.target == self.system_id:
-            self.flight.on_manual_control(self.px4.t())
+        """A ground station's joystick (handle_message_manual_control: for this system or for all, target 0), its
+        sticks scaled as PX4 scales them (sim.manual_control.from_mavlink)."""
+        if msg.target in (0, self.system_id):
+            sticks = manual_control.from_mavlink(msg.x, msg.y, msg.z, msg.r)
+            self.flight.on_manual_control(self.px4.t(), sticks)
+
+    def _on_follow_target(self, msg):
+        """The target of follow-me (handle_message_follow_target: degE7, m AMSL, NED m/s; no target fields)."""
+        values = (msg.lat, msg.lon, msg.alt) + tuple(msg.vel)
+        if not all(math.isfinite(v) for v in values):
+            log.warning('FOLLOW_TARGET from system %d ignored: a field is not a number (%s)', msg.get_srcSystem(),
+                        values)
+            return
+        position = self.frame.to_local(msg.lat * 1e-7, msg.lon * 1e-7, msg.alt)
+        self.flight.on_follow_target(position, tuple(msg.vel), self.px4.t())
 
     def _on_set_mode(self, msg):
         """PX4's receiver turns SET_MODE into a DO_SET_MODE vehicle command for target_system, and the
         commander takes a command for its own system or for all (0), as for COMMAND_LONG."""
+        if self.px4.logger is not None:  # published whatever the target
+            self.px4.logger.on_vehicle_command(logged_topics.set_mode_message(msg, self.px4.t()))
         if msg.target_system not in (0, self.system_id):
             self.counters['ignored_other_system'] += 1
             return
@@ -178,6 +204,10 @@ class Receiver:
             # is ignored, unanswered ("ignoring CMD with same SYS/COMP")
             self.counters['ignored_own_id'] = self.counters.get('ignored_own_id', 0) + 1
             return
+        if self.px4.logger is not None:
+            published = logged_topics.command_message(msg, self.px4.t(), self.params)
+            if published is not None:
+                self.px4.logger.on_vehicle_command(published)
         if msg.command == mavlink.MAV_CMD_DO_SET_MODE:
             # PX4's MAVLink module acknowledges at once, then the commander gives its own result:
             # two COMMAND_ACK(176) 1-8 ms apart (reference/px4-sitl-measured.md, section 4)

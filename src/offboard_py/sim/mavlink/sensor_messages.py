@@ -9,12 +9,6 @@ from offboard_py import dialect
 from offboard_py.dialect import mavlink
 from offboard_py.sim.sensors import pressure_hpa, temperature_c
 
-# ESTIMATOR_STATUS.flags as PX4 SITL's EKF2 on the ground (1023)
-ESTIMATOR_FLAGS = (mavlink.ESTIMATOR_ATTITUDE | mavlink.ESTIMATOR_VELOCITY_HORIZ | mavlink.ESTIMATOR_VELOCITY_VERT
-                   | mavlink.ESTIMATOR_POS_HORIZ_REL | mavlink.ESTIMATOR_POS_HORIZ_ABS
-                   | mavlink.ESTIMATOR_POS_VERT_ABS | mavlink.ESTIMATOR_POS_VERT_AGL
-                   | mavlink.ESTIMATOR_CONST_POS_MODE | mavlink.ESTIMATOR_PRED_POS_HORIZ_REL
-                   | mavlink.ESTIMATOR_PRED_POS_HORIZ_ABS)
 GPS_SATELLITES, GPS_EPH, GPS_EPV = 10, 70, 110  # PX4 SITL's simulated GPS
 GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM_S = 500, 800, 200
 RANGEFINDER_MIN_CM, RANGEFINDER_MAX_CM = 10, 4000
@@ -90,7 +84,7 @@ class SensorMessages:
                                                mavlink.MAV_SENSOR_ROTATION_PITCH_270, 1)
 
     def _estimator_status(self, st, now_s):
-        return self.mav.estimator_status_encode(self.time_usec(now_s), ESTIMATOR_FLAGS, 0.05, 0.05, 0.05, 0.05,
+        return self.mav.estimator_status_encode(self.time_usec(now_s), st.estimator_flags, 0.05, 0.05, 0.05, 0.05,
                                                 0.0, 0.0, GPS_H_ACC_MM / 1000.0, GPS_V_ACC_MM / 1000.0)
 
     def _vibration(self, st, now_s):

@@ -53,7 +53,7 @@ class VehicleCommands:
             mavlink.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
             mavlink.MAV_CMD_NAV_TAKEOFF: self._takeoff,
             mavlink.MAV_CMD_NAV_LAND: lambda msg, now: self.flight.request_mode('AUTO.LAND', now),
-            mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda msg, now: self.flight.request_mode('AUTO.RTL', now),
+            mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda msg, now: self.flight.return_to_launch(now),
             mavlink.MAV_CMD_MISSION_START: self._mission_start,
             mavlink.MAV_CMD_DO_REPOSITION: self._reposition,
             mavlink.MAV_CMD_DO_CHANGE_ALTITUDE: self._change_altitude,
