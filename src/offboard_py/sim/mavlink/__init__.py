@@ -8,7 +8,8 @@
 - streams: each link's streams, rates and schedule (mavlink_main.cpp, mavlink_stream.cpp);
 - messages, sensor_messages, system_messages: what the streams send, built from the flight's Status (streams/*.hpp);
 - link_stats: LINK_NODE_STATUS's counters; statustext: the STATUSTEXT queue (mavlink_log, streams/STATUSTEXT.hpp);
-- timesync: the TIMESYNC answer (mavlink_timesync.cpp).
+- timesync: the TIMESYNC answer (mavlink_timesync.cpp);
+- log_handler: the log protocol, listing and sending the logger's ULog files (mavlink_log_handler.cpp).
 
 sim.autopilot wires them to the links and runs the cycle; the flight stack itself is sim.flight's.
 """
