@@ -44,7 +44,8 @@ ESTIMATOR_ATTITUDE_S, ESTIMATOR_HORIZONTAL_S = 2.0, 3.0
 # the true one was +-0.1 m/s, so the height drifted 2.5 -> 4.3 and 2.45 -> 3.8 m in 33 s, down first for about
 # 10 s and up for 15-20 s in both runs. The bias here is a slow oscillation of that size and time scale (its
 # phase the seed's), horizontal at half its size; on the ground EKF2 has no bias (LOCAL_POSITION_NED's vz at rest,
-# section 7). Position control holds through it (an offset of bias / MPC_Z_P, within the hover's +-0.1 m).
+# section 7). Position control holds through it: an offset of bias / MPC_Z_P, within the 0.24 m that PX4's 80 s
+# hovers wandered (reference/px4-sitl-hover.json).
 # It grows over the first VELOCITY_BIAS_ONSET_S of a flight (EKF2 starts each flight from its ground alignment):
 # PX4's six recorded OFFBOARD takeoffs reached 1.9 m 5.86-8.51 s after the arm.
 VELOCITY_BIAS_MPS = (0.05, 0.05, 0.1)  # north, east, down amplitude
@@ -92,7 +93,7 @@ class Estimator:
         self._raw_gust = [0.0, 0.0, 0.0]
         self.gust = [0.0, 0.0, 0.0]
         self.bias_phase = self.rng.uniform(0.0, 2.0 * math.pi) if not ideal else 0.0
-        self.flight_s = 0.0          # seconds airborne, the bias's time
+        self.flight_s = 0.0          # seconds airborne in this flight, the bias's time
         self.velocity_bias = (0.0, 0.0, 0.0)
         self.lag_velocity = 0.0      # the touchdown the vertical estimate has not followed yet (m/s, down)
         self.lag_height = 0.0        # ... and where it has taken the height (m, down)
@@ -149,7 +150,7 @@ class Estimator:
                     * (1.0 - math.exp(-self.flight_s / VELOCITY_BIAS_ONSET_S)))
             self.velocity_bias = tuple(a * wave for a in VELOCITY_BIAS_MPS)
         else:
-            self.velocity_bias = (0.0, 0.0, 0.0)
+            self.flight_s, self.velocity_bias = 0.0, (0.0, 0.0, 0.0)
         if self.lag_velocity or self.lag_height:
             self.lag_velocity *= math.exp(-dt / TOUCHDOWN_LAG_S)
             self.lag_height += (self.lag_velocity - self.lag_height / TOUCHDOWN_RECOVERY_S) * dt

@@ -107,7 +107,6 @@ class Flight:
         # in the two real-PX4 recordings (HOME_POSITION.time_usec, reference/conversations/takeoff-*-px4)
         self.home_first_s = min(HOME_SET_S, ready_delay_s)
         self.home_set_s = None  # then, once the estimator is ready and after an arming: when it was set again
-        self.ready_delay_s = ready_delay_s
         self.ready_seen = ready_delay_s <= self.home_first_s  # ready at boot: no second home
         self._set_home()
 
@@ -324,7 +323,7 @@ class Flight:
                       position_sp, velocity_sp, acc_sp, yaw_sp, yaw_rate_sp, thrust, b.remaining, b.voltage_v,
                       self.home, c.rc, rtl, v.body_rates, c.logging(now_s), v.gyro, self.home_set(now_s),
                       b.warning, c.unhealthy_sensors(), c.health_published(), c.gps_present(),
-                      estimator_flags(now_s - c.boot_s, self.ready_delay_s, c.armed))
+                      estimator_flags(now_s - c.boot_s, c.ready_delay_s, c.armed))
 
     def home_set(self, now_s):
         """Boot s when home was last set, or None before PX4 would have set it (home_first_s)."""
