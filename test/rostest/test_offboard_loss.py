@@ -54,7 +54,7 @@ class OffboardLossTest(OffboardTestCase):
         start = now()
         self.wait_for_armed(vehicle, False, 30.0)
         with vehicle.lock:
-            descent = [vz for t, vz in vehicle.velocities if t >= start]
+            descent = [v[2] for t, v in vehicle.velocities if t >= start]
         self.assertGreaterEqual(min(descent), -(LAND_SPEED + 0.3),
                                 'came down at %.2f m/s (land speed %.1f)' % (-min(descent), LAND_SPEED))
         # on the ground PX4's estimate is not 0: 0.17 m before takeoff, up to 0.78 m after an RTL landing

@@ -12,7 +12,9 @@ rostest (a test node of yours beside the vehicle of sim_vehicle.launch; imports 
                     call_service; and the clock guard of simulated time, and late_s() (how late
                     a busy machine may let the test see a change, for the bounds of what it times)
   Vehicle           the mavros view of one vehicle namespace ('mavros', 'uav1/mavros'): state,
-                    pose, and their history (states, positions, poses, velocities, setpoints)
+                    pose, and their histories (states, positions, poses, velocities in 3-D, and
+                    setpoints / setpoint_history of every mavros setpoint topic: setpoint_values,
+                    setpoint_counts); docs/testing.md, "What the test kit sees"
   RosoutRecorder    what one node logged, from /rosout
   now               ROS time in seconds (simulated seconds in simulated time)
 
@@ -33,7 +35,8 @@ ports (no ROS): instance numbers and UDP ports, from one formula
   ports.fcu_port, ports.bridge_port, ports.system_id, ports.free_instances
 
 The other modules here (processes, mavlink_listener, mavlink_fuzz, lossy_relay, mavros_typemasks,
-broken_offb_node, and reference and measured_tables, which read the figures of reference/) serve this package's own tests and may change without notice. Importing
+broken_offb_node, example_workspace, cross_stack, and reference and measured_tables, which read the figures
+of reference/) serve this package's own tests and may change without notice. Importing
 this package imports neither rospy nor pymavlink: each name is imported when first used, so
 the ROS-free tiers never load rospy.
 """

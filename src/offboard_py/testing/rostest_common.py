@@ -12,14 +12,16 @@ side has fallen behind the vehicles' clock (the machine cannot keep up at that s
 than letting it report a failsafe that the lag, not the vehicle, caused.
 """
 
+import collections
 import math
 import threading
 import time
 import unittest
 
 import rospy
-from geometry_msgs.msg import PoseStamped, TwistStamped
-from mavros_msgs.msg import ExtendedState, State
+from geographic_msgs.msg import GeoPoseStamped
+from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
+from mavros_msgs.msg import AttitudeTarget, ExtendedState, GlobalPositionTarget, PositionTarget, State, Thrust
 from mavros_msgs.srv import CommandBool, SetMode
 from rosgraph_msgs.msg import Log
 
@@ -92,8 +94,86 @@ class ClockGuard:
                 % (self.lag_s(), self.speed, CATCH_UP_WALL_S))
 
 
+# One setpoint the node under test sent: its ROS time of arrival, the mavros topic (relative to the vehicle's
+# namespace) and what it sets, by field: 'position' (x, y, z; ENU, m, or the raw message's coordinate_frame),
+# 'velocity' (x, y, z, m/s), 'acceleration' (x, y, z, m/s^2), 'yaw' (rad), 'yaw_rate' (rad/s), 'global'
+# (latitude, longitude, altitude), 'attitude' (quaternion x, y, z, w), 'body_rate' (x, y, z, rad/s), 'thrust'
+# (0..1), 'angular' (x, y, z, rad/s, of a Twist), 'frame' (the raw message's coordinate_frame). A raw message
+# has only the fields its type_mask does not ignore.
+Setpoint = collections.namedtuple('Setpoint', 't topic fields')
+
+# PositionTarget / GlobalPositionTarget type_mask bits (mavros_msgs, as MAVLink's POSITION_TARGET_TYPEMASK)
+_IGNORE_POSITION, _IGNORE_VELOCITY, _IGNORE_ACCELERATION = 0x7, 0x38, 0x1C0
+_IGNORE_YAW, _IGNORE_YAW_RATE = 0x400, 0x800
+
+
+def _xyz(v):
+    return (v.x, v.y, v.z)
+
+
+def _quaternion(q):
+    return (q.x, q.y, q.z, q.w)
+
+
+def _raw_fields(msg, position):
+    """The fields a PositionTarget or GlobalPositionTarget sets, by its type_mask."""
+    mask, fields = msg.type_mask, {'frame': msg.coordinate_frame}
+    if not mask & _IGNORE_POSITION:
+        fields.update(position)
+    if not mask & _IGNORE_VELOCITY:
+        fields['velocity'] = _xyz(msg.velocity)
+    if not mask & _IGNORE_ACCELERATION:
+        fields['acceleration'] = _xyz(msg.acceleration_or_force)
+    if not mask & _IGNORE_YAW:
+        fields['yaw'] = msg.yaw
+    if not mask & _IGNORE_YAW_RATE:
+        fields['yaw_rate'] = msg.yaw_rate
+    return fields
+
+
+def _attitude_target_fields(msg):
+    fields = {}
+    if not msg.type_mask & AttitudeTarget.IGNORE_ATTITUDE:
+        fields['attitude'] = _quaternion(msg.orientation)
+    if msg.type_mask & 0x7 != 0x7:
+        fields['body_rate'] = _xyz(msg.body_rate)
+    if not msg.type_mask & AttitudeTarget.IGNORE_THRUST:
+        fields['thrust'] = msg.thrust
+    return fields
+
+
+# every setpoint topic of mavros 1.21 a node may send on: (topic, type, its fields)
+SETPOINT_TOPICS = (
+    ('setpoint_position/local', PoseStamped,
+     lambda m: {'position': _xyz(m.pose.position), 'yaw': yaw_of(m.pose.orientation)}),
+    ('setpoint_position/global', GeoPoseStamped,
+     lambda m: {'global': (m.pose.position.latitude, m.pose.position.longitude, m.pose.position.altitude),
+                'yaw': yaw_of(m.pose.orientation)}),
+    ('setpoint_raw/local', PositionTarget, lambda m: _raw_fields(m, {'position': _xyz(m.position)})),
+    ('setpoint_raw/global', GlobalPositionTarget,
+     lambda m: _raw_fields(m, {'global': (m.latitude, m.longitude, m.altitude)})),
+    ('setpoint_raw/attitude', AttitudeTarget, _attitude_target_fields),
+    ('setpoint_velocity/cmd_vel', TwistStamped,
+     lambda m: {'velocity': _xyz(m.twist.linear), 'angular': _xyz(m.twist.angular)}),
+    ('setpoint_velocity/cmd_vel_unstamped', Twist, lambda m: {'velocity': _xyz(m.linear), 'angular': _xyz(m.angular)}),
+    ('setpoint_attitude/attitude', PoseStamped, lambda m: {'attitude': _quaternion(m.pose.orientation)}),
+    ('setpoint_attitude/cmd_vel', TwistStamped, lambda m: {'body_rate': _xyz(m.twist.angular)}),
+    ('setpoint_attitude/thrust', Thrust, lambda m: {'thrust': m.thrust}),
+)
+
+
 class Vehicle:
-    """The mavros view of one vehicle."""
+    """The mavros view of one vehicle: what mavros says of it, and every setpoint sent to it.
+
+    Histories (lists, appended as messages arrive; times are ROS times, simulated seconds in simulated time;
+    read a copy under `lock` or with list(...)):
+      states            (t, mavros_msgs/State)
+      positions         (t, (x, y, z)) ENU, m, from local_position/pose
+      poses             (t, z): the heights of `positions`
+      velocities        (t, (vx, vy, vz)) ENU, m/s, from local_position/velocity_local
+      setpoint_history  Setpoint(t, topic, fields) of every setpoint topic of mavros (SETPOINT_TOPICS)
+      setpoints         t of each of them: when the node under test streamed last, whatever it sends
+    """
 
     def __init__(self, ns='mavros'):
         self.ns = ns.rstrip('/')
@@ -102,27 +182,42 @@ class Vehicle:
         self.extended_state = ExtendedState()
         self.pose = None
         self.velocity = None
-        self.states = []      # (time, State) history
-        self.positions = []   # (time, (x, y, z) ENU)
-        self.velocities = []  # (time, vz ENU)
-        self.setpoints = []   # times of the setpoints the node under test sent on setpoint_position/local
+        self.states = []
+        self.positions = []
+        self.velocities = []
+        self.setpoints = []
+        self.setpoint_history = []
         self.subs = [
-            rospy.Subscriber(self.ns + '/setpoint_position/local', PoseStamped, self._on_setpoint),
             rospy.Subscriber(self.ns + '/state', State, self._on_state),
             rospy.Subscriber(self.ns + '/extended_state', ExtendedState, self._on_extended),
             rospy.Subscriber(self.ns + '/local_position/pose', PoseStamped, self._on_pose),
             rospy.Subscriber(self.ns + '/local_position/velocity_local', TwistStamped, self._on_velocity),
-        ]
+        ] + [rospy.Subscriber(self.ns + '/' + topic, kind, self._on_setpoint, (topic, fields))
+             for topic, kind, fields in SETPOINT_TOPICS]
         self.set_mode_srv = rospy.ServiceProxy(self.ns + '/set_mode', SetMode)
         self.arming_srv = rospy.ServiceProxy(self.ns + '/cmd/arming', CommandBool)
+
+    def _on_setpoint(self, msg, topic_and_fields):
+        topic, fields = topic_and_fields
+        t = now()
+        with self.lock:
+            self.setpoints.append(t)
+            self.setpoint_history.append(Setpoint(t, topic, fields(msg)))
+
+    def setpoint_values(self, field, since=0.0):
+        """(t, value) of every setpoint since ROS time `since` that sets `field` ('position', 'velocity', ...)."""
+        with self.lock:
+            return [(sp.t, sp.fields[field]) for sp in self.setpoint_history if sp.t >= since and field in sp.fields]
+
+    def setpoint_counts(self):
+        """{topic: how many setpoints arrived on it}, for the topics the node used."""
+        with self.lock:
+            return dict(collections.Counter(sp.topic for sp in self.setpoint_history))
 
     def _on_state(self, msg):
         with self.lock:
             self.state = msg
             self.states.append((now(), msg))
-
-    def _on_setpoint(self, _msg):
-        self.setpoints.append(now())
 
     def _on_extended(self, msg):
         self.extended_state = msg
@@ -136,7 +231,7 @@ class Vehicle:
     def _on_velocity(self, msg):
         with self.lock:
             self.velocity = msg
-            self.velocities.append((now(), msg.twist.linear.z))
+            self.velocities.append((now(), _xyz(msg.twist.linear)))
 
     def states_since(self, start):
         """(time, State) received at or after ROS time `start`."""
@@ -169,6 +264,16 @@ class Vehicle:
             return float('inf'), float('inf')
         p = self.pose.pose.position
         return _offset((p.x, p.y, p.z), position_enu)
+
+
+def _closest(vehicle, start, distance, describe):
+    """Where the vehicle came nearest (by distance(position)) since ROS time start, and when: a text."""
+    with vehicle.lock:
+        samples = [(t, p) for t, p in vehicle.positions if t >= start]
+    if not samples:
+        return 'no pose since the wait began'
+    t, p = min(samples, key=lambda sample: distance(sample[1]))
+    return 'ENU (%.2f, %.2f, %.2f) at %.1f s into the wait, %s' % (p + (t - start, describe(p)))
 
 
 def _offset(position, target):
@@ -209,10 +314,12 @@ class OffboardTestCase(unittest.TestCase):
                 return
             rospy.sleep(min(left, 0.1))
 
-    def wait_until(self, predicate, timeout_s, what, vehicles=(), min_wall_s=0.0):
+    def wait_until(self, predicate, timeout_s, what, vehicles=(), min_wall_s=0.0, closest=None):
         """Until predicate() holds: at most timeout_s of ROS time, but never less than min_wall_s of
-        wall time (for what processes do in wall time, such as starting up)."""
-        deadline, wall_deadline = now() + timeout_s, time.monotonic() + min_wall_s
+        wall time (for what processes do in wall time, such as starting up). On failure the message says
+        what the vehicles were doing last and, with closest(start) (a text), how near the wait came."""
+        start = now()
+        deadline, wall_deadline = start + timeout_s, time.monotonic() + min_wall_s
         while (now() < deadline or time.monotonic() < wall_deadline) and not rospy.is_shutdown():
             if predicate():
                 return True
@@ -220,7 +327,8 @@ class OffboardTestCase(unittest.TestCase):
             rospy.sleep(0.05)
         self.guard()
         seen = '; '.join(v.describe() for v in vehicles) or 'nothing'
-        self.fail('%s did not happen within %.0f s. Seen: %s' % (what, timeout_s, seen))
+        nearest = ('. Closest: %s' % closest(start)) if closest is not None else ''
+        self.fail('%s did not happen within %.0f s. Seen: %s%s' % (what, timeout_s, seen, nearest))
 
     def until_accepted(self, vehicle, what, ask, seen, timeout_s, state_period_s=1.0):
         """ask() (a service call, True when it says it was sent) until seen() holds within a state
@@ -257,7 +365,9 @@ class OffboardTestCase(unittest.TestCase):
 
     def wait_for_altitude(self, vehicle, z_m, tolerance_m, timeout_s):
         self.wait_until(lambda: abs(vehicle.z() - z_m) <= tolerance_m, timeout_s,
-                        'altitude %.2f +- %.2f m' % (z_m, tolerance_m), [vehicle])
+                        'altitude %.2f +- %.2f m' % (z_m, tolerance_m), [vehicle],
+                        closest=lambda start: _closest(vehicle, start, lambda p: abs(p[2] - z_m),
+                                                       lambda p: '%+.2f m from it' % (p[2] - z_m)))
 
     def wait_back_at_2m(self, vehicle, what, timeout_s=60.0, tolerance_m=0.2):
         """OFFBOARD and armed again after `what` within timeout_s, then at 2 m within 30 s."""
@@ -284,8 +394,17 @@ class OffboardTestCase(unittest.TestCase):
         def within():
             horizontal, vertical = vehicle.offset_from(position_enu)
             return horizontal <= horizontal_m and vertical <= vertical_m
+
+        def excess(p):
+            horizontal, vertical = _offset(p, position_enu)
+            return max(horizontal / horizontal_m, vertical / vertical_m)
+
+        def off(p):
+            horizontal, vertical = _offset(p, position_enu)
+            return '%.2f m horizontally, %+.2f m vertically from it' % (horizontal, p[2] - position_enu[2])
         self.wait_until(within, timeout_s, 'position ENU (%.2f, %.2f, %.2f) +- %.2f m horizontally, +- %.2f m '
-                        'vertically' % (tuple(position_enu) + (horizontal_m, vertical_m)), [vehicle])
+                        'vertically' % (tuple(position_enu) + (horizontal_m, vertical_m)), [vehicle],
+                        closest=lambda start: _closest(vehicle, start, excess, off))
 
     def assert_holds_position(self, vehicle, position_enu, duration_s, horizontal_m=1.0, vertical_m=0.2):
         """"Held": every pose for duration_s within horizontal_m (x, y) and vertical_m (z) of
@@ -311,8 +430,8 @@ class OffboardTestCase(unittest.TestCase):
     def wait_for_failsafe(self, vehicle, loss_timeout_s=1.0, slack_s=0.3, state_period_s=1.0, timeout_s=10.0):
         """Failsafe timing, once the node under test has stopped streaming setpoints (killed, or told
         to stop): the vehicle leaves OFFBOARD not before loss_timeout_s (PX4's COM_OF_LOSS_T, 1 s
-        in PX4 and in the simulator) after the last setpoint the node sent on
-        setpoint_position/local, and not after loss_timeout_s + slack_s + state_period_s (mavros
+        in PX4 and in the simulator) after the last setpoint the node sent (on any setpoint topic
+        of mavros), and not after loss_timeout_s + slack_s + state_period_s (mavros
         publishes the mode with each HEARTBEAT, 1 Hz, so it tells of a change up to a period late)
         + late_s() (a busy machine).
         Waits at most timeout_s; returns (delay_s, mode): from the last setpoint to the first state
@@ -323,7 +442,8 @@ class OffboardTestCase(unittest.TestCase):
                 return None
             return next(((t, s.mode) for t, s in vehicle.states_since(setpoints[-1]) if s.mode != 'OFFBOARD'), None)
         self.wait_until(left_offboard, timeout_s, 'leaving OFFBOARD after the last setpoint of the node under test '
-                        '(%d seen)' % len(vehicle.setpoints), [vehicle])
+                        '(%s)' % (', '.join('%d on %s' % kv for kv in sorted(vehicle.setpoint_counts().items()))
+                                  or 'none seen on any setpoint topic'), [vehicle])
         when, mode = left_offboard()
         delay = when - vehicle.setpoints[-1]
         self.assertGreaterEqual(delay, loss_timeout_s - 0.05,
