@@ -200,10 +200,27 @@ def vehicles_served(argv):
     return range(args.instance, args.instance + args.vehicles)
 
 
+def configure_logging(args):
+    """What the simulator says goes to stdout, its warnings and errors to stderr: as roslaunch's output="log"
+    keeps a node's stdout in its log file and still shows its stderr, a clean flight prints nothing there."""
+    fmt = logging.Formatter('[sim_px4 %s] %%(message)s' % (
+        args.instance if args.vehicles == 1 else '%d-%d' % (args.instance, args.instance + args.vehicles - 1)))
+    said, warned = logging.StreamHandler(sys.stdout), logging.StreamHandler(sys.stderr)
+    said.addFilter(lambda record: record.levelno < logging.WARNING)
+    warned.setLevel(logging.WARNING)
+    root = logging.getLogger()
+    root.setLevel(args.log_level.upper())
+    if root.handlers:  # as logging.basicConfig: a process that configured its logging already keeps it
+        return
+    for handler in (said, warned):
+        handler.setFormatter(fmt)
+        root.addHandler(handler)
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     args = parser().parse_args([a for a in argv if ':=' not in a])
-    logging.basicConfig(level=args.log_level.upper(), format='[sim_px4 %s] %%(message)s' % (args.instance if args.vehicles == 1 else '%d-%d' % (args.instance, args.instance + args.vehicles - 1)))
+    configure_logging(args)
     check_pymavlink_version()
     if not 10.0 <= args.rate <= 1000.0:
         logging.error('--rate must be 10..1000 Hz, got %g', args.rate)
