@@ -1,36 +1,35 @@
-"""The example of README's "Test your own node" works as a user's package: built, run, and able to fail.
+"""The example packages of README's "Test your own node" work as a user's packages: built, run, and able to fail.
 
-examples/my_offboard_check is copied into a temporary catkin workspace chained on the one this
-test runs in (the workspace that holds offboard_py, already sourced), built with catkin_make by
-the Python on PATH, and its rostest run in a network namespace of its own (`unshare -n`, or
-`unshare -rn` without root; skipped, saying why, when neither is allowed), so its vehicle's ports
-clash with nothing. Its result is read from rostest's RESULT line and the JUnit file it writes.
-Then, told to fly to 1 m instead of 2, it must fail saying where the vehicle was. Its failsafe test (the
-battery drained by the test kit's Failures) runs too.
+A user's workspace is made as docs/install.md says (offboard_py, links to its two interface packages, and
+examples/my_offboard_check and examples/my_velocity_square beside them; offboard_py.testing.example_workspace),
+built with catkin_make by the Python on PATH with no other workspace sourced, and `catkin_make run_tests` run
+in it in a network namespace of its own (`unshare -n`, or `unshare -rn` without root; skipped, saying why, when
+neither is allowed), so the vehicles' ports clash with nothing: catkin_test_results must exit 0 with only the
+user's tests run, each of them passed. Then, told to fly to 1 m instead of 2, the hover example must fail
+saying where the vehicle was and where it came closest.
 """
 
 import os
-import re
 import shlex
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
-import xml.etree.ElementTree as ET
 
 import pytest
 
-REPO = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..'))
-EXAMPLE = os.path.join(REPO, 'examples', 'my_offboard_check')
-BUILD_TIMEOUT_S = 300.0
-ROSTEST_TIMEOUT_S = 300.0
-ANSI_COLOUR = re.compile(r'\x1b\[[0-9;]*m')  # rostest colours its summary
+from offboard_py.testing import example_workspace
+from offboard_py.testing.example_workspace import Timeout
+
+REPO = example_workspace.REPO
 # The example's flights run in the processes tier, niced beside the scenarios under ./run test: at 5x a 0.1 s
 # stall of the niced flight is 0.5 s of simulated time and the clock guard rightly calls the run untrustworthy
 # (seen on a fresh clone), and at 2x beside the hog a 0.36 s stall was (0.72 s simulated, one fresh clone of
 # five), so they fly in real time, where no /clock can fall behind
 EXAMPLE_MAX_SPEED = 1.0
+RUN_TESTS_TIMEOUT_S = 900.0  # three example flights in real time, one after another
+INSTANCES = {(package, test_file): instance for package, test_file, instance in example_workspace.TESTS}
 
 
 def example_speed():
@@ -50,86 +49,100 @@ def _isolation():
     return None
 
 
-def _run(script, timeout_s, what):
-    """bash -c script; (returncode, output). Fails naming `what` and showing the output's end on a timeout."""
-    # a make of ours around this one (catkin's run_tests) would hand it a jobserver it cannot reach
-    env = {k: v for k, v in os.environ.items() if k not in ('MAKEFLAGS', 'MFLAGS', 'MAKELEVEL')}
-    try:
-        out = subprocess.run(['bash', '-c', script], capture_output=True, text=True, timeout=timeout_s, env=env)
-    except subprocess.TimeoutExpired as err:
-        pytest.fail('%s did not finish within %.0f s; its output ended:\n%s'
-                    % (what, timeout_s, ((err.stdout or b'').decode(errors='replace'))[-3000:]))
-    return out.returncode, out.stdout + out.stderr
-
-
-@pytest.fixture(scope='module')
-def workspace():
-    """A catkin workspace with the example package, built; yields its devel/setup.bash."""
-    if shutil.which('catkin_make') is None:
-        pytest.skip('catkin_make is not on PATH (run in ./run shell)')
-    if not os.environ.get('CMAKE_PREFIX_PATH'):
-        pytest.skip('no catkin workspace is sourced (source the devel/setup.bash that holds offboard_py)')
-    with tempfile.TemporaryDirectory(prefix='my_ws-') as ws:
-        os.makedirs(os.path.join(ws, 'src'))
-        shutil.copytree(EXAMPLE, os.path.join(ws, 'src', 'my_offboard_check'))
-        start = time.monotonic()
-        code, output = _run('cd %s && catkin_make -DPYTHON_EXECUTABLE="$(command -v python3)"' % shlex.quote(ws),
-                            BUILD_TIMEOUT_S, 'catkin_make of the example workspace')
-        assert code == 0, 'catkin_make of the example package failed:\n' + output[-4000:]
-        print('example workspace built in %.1f s' % (time.monotonic() - start))
-        yield os.path.join(ws, 'devel', 'setup.bash')
-
-
-def run_example(setup_bash, *launch_args, test_file='hover.test'):
-    """rostest my_offboard_check TEST_FILE in a network namespace of its own; (RESULT line, failure texts, output)."""
+def _isolated():
     unshare = _isolation()
     if unshare is None:
         pytest.skip('no network namespace for the example\'s vehicle (unshare -n and unshare -rn are not allowed '
                     'here), and on the shared loopback its ports could clash with other tests')
-    with tempfile.TemporaryDirectory(prefix='my_results-') as results:
-        inner = ('ip link set lo up && source %s && export ROS_HOSTNAME=localhost OFFBOARD_PY_SPEED=%g && '
-                 'unset ROS_IP && exec rostest --results-base-dir %s my_offboard_check %s %s'
-                 % (shlex.quote(setup_bash), example_speed(), shlex.quote(results), test_file,
-                    ' '.join(map(shlex.quote, launch_args))))
+    return unshare
+
+
+@pytest.fixture(scope='module')
+def workspace():
+    """A user's workspace as docs/install.md makes one (offboard_py, its interface packages, the example
+    packages), built, and `catkin_make run_tests` run in it in a network namespace of its own;
+    yields (devel/setup.bash, catkin_test_results's exit code and output, the results folder)."""
+    if shutil.which('catkin_make') is None:
+        pytest.skip('catkin_make is not on PATH (run in ./run shell)')
+    with tempfile.TemporaryDirectory(prefix='my_ws-') as ws:
         start = time.monotonic()
-        _, output = _run(' '.join(map(shlex.quote, unshare + ['bash', '-c', inner])), ROSTEST_TIMEOUT_S,
-                         'rostest my_offboard_check %s %s' % (test_file, ' '.join(launch_args)))
-        print('rostest my_offboard_check %s %s: %.1f s' % (test_file, ' '.join(launch_args), time.monotonic() - start))
-        result = next((ANSI_COLOUR.sub('', line).strip() for line in output.splitlines() if ' * RESULT: ' in line),
-                      None)
-        files = [os.path.join(d, f) for d, _, fs in os.walk(results) for f in fs if f.startswith('rosunit-')]
-        assert files, 'rostest wrote no result file; it said:\n' + output[-4000:]
-        suites = [ET.parse(f).getroot() for f in files]
-        tests = sum(int(s.get('tests', 0)) for s in suites)
-        assert tests >= 1, 'the example ran no test; rostest said:\n' + output[-4000:]
-        failures = [(node.get('message') or '') + (node.text or '')
-                    for s in suites for node in s.iter() if node.tag in ('failure', 'error')]
-    return result, failures, output
+        try:
+            code, output, setup_bash = example_workspace.build_user_workspace(ws)
+        except Timeout as err:
+            pytest.fail(str(err))
+        assert code == 0, 'catkin_make of the user workspace failed:\n' + output[-4000:]
+        assert 'its own tests are not registered' in output, \
+            'offboard_py did not say its own tests are left out:\n' + output[-4000:]
+        print('user workspace built in %.1f s' % (time.monotonic() - start))
+        start = time.monotonic()
+        inner = ('ip link set lo up && cd %s && source devel/setup.bash && export ROS_HOSTNAME=localhost && '
+                 'unset ROS_IP && catkin_make run_tests >run_tests.log 2>&1; catkin_test_results build/test_results'
+                 % shlex.quote(ws))
+        env = dict(example_workspace.standalone_environment(), OFFBOARD_PY_SPEED='%g' % example_speed(),
+                   OFFBOARD_PY_FCU='sim', OFFBOARD_PY_BRIDGE='ours')
+        try:
+            code, summary = example_workspace.run_bash(' '.join(map(shlex.quote, _isolated() + ['bash', '-c', inner])),
+                                                       RUN_TESTS_TIMEOUT_S, 'catkin_make run_tests', env)
+        except Timeout as err:
+            pytest.fail(str(err))
+        with open(os.path.join(ws, 'run_tests.log')) as log:
+            summary += '\n' + log.read()[-4000:]
+        print('catkin_make run_tests in the user workspace: %.1f s' % (time.monotonic() - start))
+        yield setup_bash, code, summary, os.path.join(ws, 'build', 'test_results')
 
 
-def test_the_example_package_builds_and_passes(workspace):
-    result, failures, output = run_example(workspace)
-    assert not failures, 'the example failed:\n%s\nrostest said:\n%s' % ('\n'.join(failures), output[-3000:])
-    assert result == '* RESULT: SUCCESS', \
-        'rostest did not say RESULT: SUCCESS (%r); it said:\n%s' % (result, output[-3000:])
+def run_example(built, *launch_args, package='my_offboard_check', test_file='hover.test'):
+    """rostest PACKAGE TEST_FILE in the user workspace, in a network namespace of its own, on the simulated PX4
+    whatever the caller's OFFBOARD_PY_FCU; an example_workspace.Outcome with at least one test counted."""
+    start = time.monotonic()
+    env = dict(example_workspace.standalone_environment(), OFFBOARD_PY_SPEED='%g' % example_speed(),
+               OFFBOARD_PY_FCU='sim', OFFBOARD_PY_BRIDGE='ours')
+    try:
+        outcome = example_workspace.run_rostest(built[0], package, test_file, launch_args, isolate=_isolated(), env=env)
+    except Timeout as err:
+        pytest.fail(str(err))
+    print('rostest %s %s %s: %.1f s' % (package, test_file, ' '.join(launch_args), time.monotonic() - start))
+    assert outcome.tests >= 1, 'the example ran no test; rostest said:\n' + outcome.output[-4000:]
+    return outcome
 
 
-def test_the_example_failsafe_test_passes(workspace):
-    """failsafe.test: the battery drained to 6 % by the test kit's Failures; the node leaves PX4's return alone."""
-    result, failures, output = run_example(workspace, test_file='failsafe.test')
-    assert not failures, 'the failsafe example failed:\n%s\nrostest said:\n%s' % ('\n'.join(failures), output[-3000:])
-    assert result == '* RESULT: SUCCESS', (result, output[-3000:])
+def assert_failed(outcome, what):
+    assert outcome.result is not None and 'SUCCESS' not in outcome.result, \
+        '%s passed (%r); rostest said:\n%s' % (what, outcome.result, outcome.output[-3000:])
+    return ' '.join(outcome.failures)
+
+
+def test_a_user_workspace_passes_run_tests_with_its_own_tests_only(workspace):
+    """catkin_make run_tests beside offboard_py: catkin_test_results exits 0, and only the user's packages
+    have results (offboard_py's own suite is not registered unless -DOFFBOARD_PY_TESTS=ON)."""
+    _, code, summary, results = workspace
+    assert code == 0, 'catkin_test_results exited %d:\n%s' % (code, summary)
+    assert sorted(os.listdir(results)) == sorted(example_workspace.PACKAGES), (os.listdir(results), summary)
+
+
+@pytest.mark.parametrize('package, test_file', [(p, t) for p, t, _ in example_workspace.TESTS])
+def test_each_example_test_ran_and_passed(workspace, package, test_file):
+    """hover.test (2 m reached and held), failsafe.test (the battery drained to 6 % by the test kit's Failures;
+    the node leaves PX4's return alone), square.test (a 5 m square at 3 m on setpoint_raw/local velocities, each
+    corner, then AUTO.LAND): each ran under catkin_make run_tests and passed."""
+    name = os.path.splitext(test_file)[0]
+    folder = os.path.join(workspace[3], package)
+    files = [f for f in os.listdir(folder) if f.startswith('rosunit-') and name in f]
+    assert files, 'no result of %s %s in %s (%s):\n%s' % (package, test_file, folder, os.listdir(folder), workspace[2])
+    for f in files:
+        failures, tests = example_workspace.read_results_file(os.path.join(folder, f))
+        assert tests >= 1 and not failures, '%s %s: %d tests, failures:\n%s' % (package, test_file, tests,
+                                                                                '\n'.join(failures))
 
 
 def test_the_example_fails_when_the_node_flies_elsewhere(workspace):
-    """The node told to fly to 1 m: the example's wait for 2 m must fail, saying where the vehicle was."""
-    result, failures, output = run_example(workspace, 'z:=1.0')
-    assert result is not None and 'SUCCESS' not in result, \
-        'the example passed with the node at 1 m (%r); rostest said:\n%s' % (result, output[-3000:])
-    message = ' '.join(failures)
+    """The node told to fly to 1 m: the example's wait for 2 m must fail, saying where the vehicle was and where
+    it came closest."""
+    message = assert_failed(run_example(workspace, 'z:=1.0'), 'hover.test with the node at 1 m')
     expected = 'position ENU (0.00, 0.00, 2.00) +- 1.00 m horizontally, +- 0.10 m vertically did not happen'
     assert expected in message, message
     assert 'OFFBOARD' in message and 'armed' in message and 'ENU (' in message, message
+    assert 'Closest: ENU (' in message and 's into the wait' in message and 'vertically from it' in message, message
 
 
 def test_the_public_api_resolves_and_loads_no_ros_until_used():

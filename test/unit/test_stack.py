@@ -115,6 +115,9 @@ def test_cross_stack_plan_runs_what_is_installed_and_says_why_not_the_rest():
     assert rows['takeoff', 'bridge+px4'] is None and rows['offboard_loss', 'bridge+px4'] is None
     assert rows['takeoff', 'mavros+sim'] == rows['takeoff', 'mavros+px4'] == 'its real parts are not installed here'
     assert 'process name' in rows['restarts', 'bridge+px4'], 'a fault only ours can take is skipped with its reason'
+    # the example packages' tests fly as a user flies them on real PX4, every column whose parts are there
+    assert rows['example:my_velocity_square/square', 'bridge+px4'] is None
+    assert rows['example:my_offboard_check/failsafe', 'mavros+px4'] == 'its real parts are not installed here'
     everything = {'px4_dir': '/opt/PX4-Autopilot', 'mavros': '/opt/ros/noetic/share/mavros', 'why': []}
     assert [c.name for c in cross_stack.columns_found(everything)] == ['bridge+px4', 'mavros+sim', 'mavros+px4']
     assert cross_stack.columns_found({'px4_dir': None, 'mavros': None, 'why': []}) == []

@@ -11,6 +11,10 @@ results folder as cross-<scenario>-<column>.xml, so catkin_test_results counts i
 the tier ends with a matrix (scenario x column: passed, failed, skipped). Without any real part it
 prints one line saying so and runs nothing.
 
+The example packages' tests (examples/, offboard_py.testing.example_workspace) are rows too, flown as a
+user flies them on real PX4: built in a workspace chained on ours, their .test files unchanged, the stack
+chosen by OFFBOARD_PY_FCU, OFFBOARD_PY_BRIDGE and PX4_DIR alone (docs/testing.md).
+
     python -m offboard_py.testing.cross_stack --results DIR [--config FILE] [--dry-run]
 """
 
@@ -25,6 +29,7 @@ import tempfile
 import xml.etree.ElementTree as ElementTree
 
 from offboard_py import stack
+from offboard_py.testing import example_workspace
 
 PKG = 'offboard_py'
 Column = collections.namedtuple('Column', 'name fcu bridge')
@@ -60,6 +65,10 @@ SCENARIOS = collections.OrderedDict([
     ('failsafe_rc', ('failsafe_rc.test', 25, {})),
     ('failsafe_offboard', ('failsafe_offboard.test', 26, {})),
 ])
+# the example packages' tests: row name -> (package, .test file, instance)
+EXAMPLES = collections.OrderedDict(('example:%s/%s' % (package, test_file[:-len('.test')]),
+                                    (package, test_file, instance))
+                                   for package, test_file, instance in example_workspace.TESTS)
 TIME_LIMIT_S = 600.0  # one rostest run, real time, real PX4 starting included
 
 
@@ -73,7 +82,7 @@ def plan(found):
     """[(scenario, column, reason or None)] for every scenario and column: None runs it."""
     runnable = {c.name for c in columns_found(found)}
     rows = []
-    for scenario, (_, _, skips) in SCENARIOS.items():
+    for scenario, (_, _, skips) in list(SCENARIOS.items()) + [(name, (None, None, {})) for name in EXAMPLES]:
         for column in COLUMNS:
             if column.name not in runnable:
                 reason = 'its real parts are not installed here'
@@ -114,11 +123,46 @@ def run_scenario(scenario, column, found, results_dir):
     return outcome
 
 
+def run_example(name, column, found, results_dir, setup_bash):
+    """One example test as a user runs it on this column's stack: the variables choose it, the .test is as is."""
+    package, test_file, instance = EXAMPLES[name]
+    env = {'OFFBOARD_PY_FCU': column.fcu, 'OFFBOARD_PY_BRIDGE': column.bridge, 'PX4_DIR': found['px4_dir'] or '',
+           'OFFBOARD_PY_SPEED': '1'}
+    out = tempfile.mkdtemp(prefix='cross-stack-')
+    try:
+        example_workspace.run_rostest(setup_bash, package, test_file, ['instance:=%d' % instance], env=env,
+                                      results_dir=out, timeout_s=TIME_LIMIT_S)
+    except example_workspace.Timeout:
+        pass  # its JUnit file, if any, says how far it came
+    files = [os.path.join(d, f) for d, _, fs in os.walk(out) for f in fs if f.startswith('rosunit-')]
+    outcome = 'failed'
+    for path in files:
+        outcome = junit_outcome(path)
+        shutil.copy(path, os.path.join(results_dir, 'cross-%s-%s-%s.xml' % (package, test_file[:-len('.test')],
+                                                                            column.name)))
+    shutil.rmtree(out, ignore_errors=True)
+    return outcome
+
+
+def build_examples(workspace):
+    """The example packages built in `workspace` chained on ours; its setup.bash, or None saying why not."""
+    try:
+        code, output, setup_bash = example_workspace.build(workspace)
+    except example_workspace.Timeout as err:
+        print('cross-stack tier: %s' % err)
+        return None
+    if code != 0:
+        print('cross-stack tier: the example packages did not build:\n%s' % output[-3000:])
+        return None
+    return setup_bash
+
+
 def matrix(outcomes):
-    """The tier's closing table: a row per scenario, a column per stack."""
-    width = max(len(s) for s in SCENARIOS)
+    """The tier's closing table: a row per scenario and example test, a column per stack."""
+    rows = list(SCENARIOS) + list(EXAMPLES)
+    width = max(len(s) for s in rows)
     lines = ['%-*s  %s' % (width, 'scenario', '  '.join('%-12s' % c.name for c in COLUMNS))]
-    for scenario in SCENARIOS:
+    for scenario in rows:
         lines.append('%-*s  %s' % (width, scenario, '  '.join('%-12s' % outcomes[scenario, c.name] for c in COLUMNS)))
     return '\n'.join(lines)
 
@@ -128,8 +172,9 @@ def main(argv=None):
     p.add_argument('--results', required=True, help='the folder catkin_test_results reads')
     p.add_argument('--config', help='real-stack.conf (PX4_DIR=...)')
     p.add_argument('--dry-run', action='store_true', help='print the plan, run nothing')
-    p.add_argument('--only', action='append', choices=list(SCENARIOS), metavar='SCENARIO',
-                   help='run this scenario only (repeatable; default: all of %s)' % ', '.join(SCENARIOS))
+    p.add_argument('--only', action='append', choices=list(SCENARIOS) + list(EXAMPLES), metavar='SCENARIO',
+                   help='run this scenario only (repeatable; default: all of %s)'
+                   % ', '.join(list(SCENARIOS) + list(EXAMPLES)))
     args = p.parse_args(argv)
     try:
         found = stack.find_real_parts(config_path=args.config)
@@ -140,7 +185,8 @@ def main(argv=None):
         print('cross-stack tier: skipped: %s' % '; '.join(found['why']))
         return 0
     os.makedirs(args.results, exist_ok=True)
-    outcomes, skipped = {}, []
+    outcomes, skipped, built = {}, [], {}
+    workspace = tempfile.mkdtemp(prefix='cross-stack-examples-')
     for scenario, column, reason in plan(found):
         if args.only and scenario not in args.only:
             outcomes[scenario, column.name] = 'not asked'
@@ -153,7 +199,14 @@ def main(argv=None):
             outcomes[scenario, column.name] = 'would run'
             continue
         print('cross-stack tier: %s on %s ...' % (scenario, column.name), flush=True)
-        outcomes[scenario, column.name] = run_scenario(scenario, column, found, args.results)
+        if scenario in SCENARIOS:
+            outcomes[scenario, column.name] = run_scenario(scenario, column, found, args.results)
+            continue
+        if 'setup_bash' not in built:
+            built['setup_bash'] = build_examples(workspace)  # once, for every example row
+        outcomes[scenario, column.name] = (run_example(scenario, column, found, args.results, built['setup_bash'])
+                                           if built['setup_bash'] else 'failed')
+    shutil.rmtree(workspace, ignore_errors=True)
     print('cross-stack tier (PX4: %s; mavros: %s):' % (found['px4_dir'] or 'not found', found['mavros'] or 'not found'))
     print(matrix(outcomes))
     for line in skipped:
