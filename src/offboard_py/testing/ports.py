@@ -6,18 +6,8 @@ gives each instance a block of extra ports (15000 + 10 N + k, k = 0..9: relays, 
 control ports).
 N stays below 40 so that the FCU and bridge ranges never overlap.
 
-Who uses which N:
-  0..19   the rostests, one block each, given in CMakeLists.txt (`instance:=N`), but not
-          15: its bridge port is 14555, mavros's default GCS bind port (nor 10, whose bridge
-          port was 14550, where every simulator's GCS link sends, before sitl_ports moved it);
-          two_vehicles.test takes 0 and 1 (multi_uav.launch numbers vehicles from 0);
-          fleet_shared_sims.test 19, 20 and 21 (20 and 21 also the pytest tiers': under ./run test
-          those run beside the rostests in network namespaces of their own; without one, catkin runs
-          them one after another)
-  20..37  the pytest tiers (test/sim, test/meta): free_instances() per test; the failsafe scenarios
-          (failsafe_*.test) take 16 and 22..27, which the pytest tiers may also take only because
-          ./run test runs those in network namespaces of their own (catkin alone runs them one after another)
-  38, 39  a .test file run by hand without `instance:=N` (its default)
+Who uses which N: INSTANCES below, the one table (docs/testing.md shows it, test/unit/test_instances.py holds
+CMakeLists.txt, the .test files and the example packages to it).
 """
 
 import socket
@@ -29,6 +19,21 @@ EXTRA_PORT_BASE = 15000
 EXTRA_PORTS_PER_INSTANCE = 10
 MAX_INSTANCE = 39
 PYTEST_INSTANCES = range(20, 38)
+
+# (first, last, who): every instance offboard_py's own runs and examples take. A range may be shared only where
+# the users never run at once on one loopback: under ./run test the pytest tiers and the examples run in network
+# namespaces of their own; catkin alone runs the rostests one after another. In a workspace of yours
+# (`catkin_make run_tests` without -DOFFBOARD_PY_TESTS=ON) none of offboard_py's own tests run: every N is yours
+# but those another stack on the host holds (PX4 SITL instance N, or a second run of your tests).
+INSTANCES = (
+    (0, 19, "offboard_py's rostest scenarios, each its own N from CMakeLists.txt (instance:=N); two_vehicles 0 "
+            "and 1; 15 only for conversation, whose bridge binds its extra port: 15's bridge port 14555 is mavros's "
+            "default ground-station port"),
+    (19, 27, "offboard_py's rostest scenarios past 19: fleet_shared_sims 19-21, the failsafes 22-27 (and 16)"),
+    (20, 37, "offboard_py's pytest tiers (test/sim, test/meta), free_instances() per test"),
+    (30, 32, "the example packages' tests (examples/*/CMakeLists.txt): hover 30, failsafe 31, square 32"),
+    (38, 39, "a .test file run by hand without instance:=N (its default; respect_pilot takes both); the soak 38"),
+)
 
 
 def _check(instance):
