@@ -1,0 +1,168 @@
+"""The governed clock's board (offboard_py.clock_board), on a clock of the test's own: the formula while every
+participant keeps up, held at the slowest participant + the lead, going on from there without a jump, the
+stale and the ended left out, the holds counted with who held them."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from offboard_py import clock_board
+from offboard_py.clock_board import Board, BoardError
+from offboard_py.simtime import SimClock
+
+
+class Wall:
+    def __init__(self, t=100.0):
+        self.t = t
+
+    def __call__(self):
+        return self.t
+
+
+@pytest.fixture
+def wall():
+    return Wall()
+
+
+def board_at(tmp_path, wall, speed=5.0, name='b'):
+    return Board(str(tmp_path / name), speed, monotonic=wall)
+
+
+def test_without_participants_the_clock_is_the_formula(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    assert board.now() == pytest.approx(500.0)
+    board.govern()
+    wall.t += 1.0
+    assert board.now() == pytest.approx(505.0) and not board.held()
+
+
+def test_a_lagging_participant_holds_the_clock_and_it_goes_on_without_a_jump(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    slow, fast = board.join('slow'), board.join('fast')
+    lead = board.lead_s
+    assert lead == pytest.approx(0.25), '0.05 wall seconds at 5x'
+    board.govern()
+    wall.t += 0.2                       # 1 s of simulated time; the slow one does not move
+    fast.update(board.now())
+    assert board.now() == pytest.approx(500.0 + lead), 'held at the slow one + the lead'
+    holder, stale = board.govern()
+    assert holder == 'slow' and stale == [] and board.held()
+    wall.t += 0.5
+    assert board.now() == pytest.approx(500.0 + lead), 'still held: 0.5 wall seconds later'
+    slow.update(board.now())            # the slow one catches up
+    fast.update(board.now())
+    board.govern()
+    wall.t += 0.01
+    assert board.now() == pytest.approx(500.0 + lead + 0.05), 'on from where it stood, at 5x'
+    board.govern()                      # the next step finds it running: the hold is over
+    count, held_s, last = board.holds()
+    assert count == 1 and held_s > 0.1 and last == 'slow'
+
+
+def test_the_clock_never_runs_backwards(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    p = board.join('p')
+    readings = []
+    for step in range(200):
+        wall.t += 0.003
+        if step % 7:
+            p.update(board.now() - 0.1)   # sometimes behind, sometimes not at all
+        board.govern()
+        readings.append(board.now())
+    assert readings == sorted(readings)
+
+
+def test_a_stale_participant_is_left_out_and_named(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    board.join('stuck')
+    board.govern()
+    wall.t += clock_board.STALE_WALL_S + 0.1
+    holder, stale = board.govern()
+    assert stale == ['stuck'] and holder is None
+    start = board.now()
+    wall.t += 1.0
+    assert board.now() == pytest.approx(start + 5.0), 'runs again without the stale one'
+
+
+def test_a_slot_of_an_ended_process_is_freed(tmp_path, wall):
+    path = str(tmp_path / 'b')
+    board_at(tmp_path, wall)
+    script = ('import sys, time; sys.path[:0] = %r\nfrom offboard_py.clock_board import Board\n'
+              'Board(%r, 5.0).join("child").update(1.0)\n' % (sys.path, path))
+    subprocess.run([sys.executable, '-c', script], check=True, timeout=60)
+    board = board_at(tmp_path, wall)
+    assert [name for name, _, _, _ in board.participants()] == [], 'the child has ended'
+    board.join('me')
+    assert [name for name, pid, _, _ in board.participants()] == ['me']
+
+
+def test_one_speed_for_every_process_of_a_run(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    board.join('alive')
+    with pytest.raises(BoardError, match='runs at 5x, not 2x'):
+        Board(board.path, 2.0, monotonic=wall)
+
+
+def test_a_board_left_by_an_ended_run_is_made_new(tmp_path, wall):
+    board = board_at(tmp_path, wall, speed=2.0)
+    board.join('gone').leave()
+    assert Board(board.path, 5.0, monotonic=wall).speed == 5.0, 'nobody alive on it: a new run, any speed'
+
+
+def test_arrival_stamps_are_never_after_now(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    board.join('slow')
+    board.govern()
+    wall.t += 1.0
+    board.govern()
+    assert board.at(wall.t - 0.01) <= board.now()
+    assert board.at(wall.t - 0.9) == pytest.approx(500.0 + board.lead_s), 'held then'
+    assert board.at(wall.t - 1.0 - 0.01) == pytest.approx(500.0 - 0.05), 'before the hold: the clock as it ran'
+
+
+def test_board_path_per_master_only_in_simulated_time():
+    env = {'ROS_MASTER_URI': 'http://localhost:11312/'}
+    assert clock_board.board_path(1.0, env) is None
+    assert clock_board.board_path(5.0, env).endswith('offboard_py-clock-http_localhost_11312')
+    assert clock_board.board_path(5.0, {}) is None
+    assert clock_board.board_path(1.0, {clock_board.BOARD_ENV: '/dev/shm/x'}) == '/dev/shm/x'
+    assert clock_board.board_path(5.0, dict(env, **{clock_board.BOARD_ENV: ''})) is None
+
+
+def test_a_governed_sim_clock_sleeps_on_the_held_clock(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    clock = SimClock(5.0, monotonic=wall, board=board)
+    clock.participant = board.join('sleeper')
+    slept = []
+
+    def sleep(wall_s):
+        slept.append(wall_s)
+        wall.t += wall_s
+        board.govern()
+    clock._sleep = sleep
+    clock.sleep(1.0)
+    assert clock.now() >= 501.0 - 1e-9 and max(slept) <= SimClock.POLL_WALL_S + 1e-12
+    assert os.path.exists(board.path)
+
+
+def test_a_stalled_setpoint_stream_holds_the_clock_for_a_while_only():
+    from offboard_py.stream_watch import HOLD_WALL_S, STEADY_COUNT, StreamWatch
+    watch = StreamWatch()
+    sim, wall = 10.0, 100.0
+    for _ in range(STEADY_COUNT - 1):
+        sim, wall = sim + 0.05, wall + 0.01     # 20 Hz at 5x
+        watch.arrived('/my_node', sim, wall)
+    assert watch.limit(wall) is None, 'not steady yet'
+    sim, wall = sim + 0.05, wall + 0.01
+    watch.arrived('/my_node', sim, wall)
+    assert watch.limit(wall) == pytest.approx(sim + 0.1), 'two periods past its last setpoint'
+    assert watch.limit(wall + HOLD_WALL_S - 0.01) == pytest.approx(sim + 0.1), 'silent: perhaps starved'
+    assert watch.limit(wall + HOLD_WALL_S) is None, 'silent for longer: stopped, the clock goes on'
+    watch.arrived('/slow', 0.0, wall)
+    for k in range(1, 30):
+        watch.arrived('/slow', k * 1.0, wall)    # 1 Hz: no stream PX4's offboard mode keeps
+    assert watch.limit(wall) == pytest.approx(sim + 0.1)
+    watch.forget('/my_node')
+    assert watch.limit(wall) is None
