@@ -20,6 +20,7 @@ watches the clock: /clock then runs that far behind the vehicles, as on a machin
 keep up, whatever the machine.
 """
 
+import os
 import time
 
 import rospy
@@ -27,12 +28,16 @@ from rosgraph_msgs.msg import Clock
 
 from offboard_py import tcpros_out
 from offboard_py.master import await_master_from_argv
+from offboard_py.clock_board import STALE_WALL_S, BoardError
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
 
 NODE_NAME = 'sim_clock'
 DEFAULT_PERIOD_S = 0.01
 DEFAULT_MAX_LAG_S = 0.25
 LAG_PARAM = '/sim_clock/lag_max'
+HOLDS_PARAM = '/sim_clock/holds'
+GOVERN_PERIOD_S = 0.01  # wall seconds between two governing steps (the horizon moves 100 times a second)
+HOLD_LOG_WALL_S = 0.5   # a hold longer than this is logged with who held the clock
 
 
 class ClockTicks:
@@ -88,7 +93,11 @@ def main():
         return 0
     if not rospy.get_param('/use_sim_time', False):
         rospy.logwarn('sim_clock: /use_sim_time is not set: ROS nodes will not follow /clock')
-    clock = SimClock(speed)
+    try:  # the governor of the run's clock board (offboard_py.clock_board): /clock is the governed clock
+        clock = SimClock.for_run(speed)
+    except BoardError as err:
+        rospy.logfatal('sim_clock: %s', err)
+        return 2
     if fault_lag_s:
         rospy.logwarn('sim_clock: fault_lag %g s: /clock runs that far behind the vehicles (a test fault)',
                       fault_lag_s)
@@ -100,12 +109,16 @@ def main():
     rospy.loginfo('sim_clock: /clock at %gx real time, a tick every %g s of simulated time', speed, period_s)
     message = Clock()
     reported_lag_s = 0.0
+    governor = Governor(clock.board) if clock.board is not None else None
     try:
         while not rospy.core.is_shutdown():
+            if governor is not None:
+                governor.step()
             now_s = clock.now() - fault_lag_s
             due = ticks.due(now_s)
             if due is None:
-                time.sleep(clock.wall_s(ticks.next_s - now_s))
+                wait_s = clock.wall_s(ticks.next_s - now_s)
+                time.sleep(wait_s if governor is None else min(wait_s, GOVERN_PERIOD_S))
                 continue
             tick_ns, late_s = due
             message.clock.secs, message.clock.nsecs = divmod(tick_ns, 1000000000)
@@ -118,4 +131,42 @@ def main():
                              'not the vehicle\'s (lower the speed)', late_s, speed)
     except (rospy.ROSException, KeyboardInterrupt):
         pass
+    if governor is not None:
+        governor.finish()
     return 0
+
+
+class Governor:
+    """The governing of a clock board from this node's loop, and the report of who held the clock."""
+
+    def __init__(self, board, log=None):
+        self.board = board
+        self.log = log or rospy.loginfo
+        self.holding, self.since = None, None
+        self.reported_stale = set()
+
+    def step(self, now=time.monotonic):
+        holder, stale = self.board.govern()
+        for name in set(stale) - self.reported_stale:
+            rospy.logwarn('sim_clock: %s has not kept up for %.0f wall seconds: the clock goes on without it',
+                          name, STALE_WALL_S)
+        self.reported_stale = set(stale)
+        if holder != self.holding:
+            if self.holding is not None and now() - self.since > HOLD_LOG_WALL_S:
+                self.log('sim_clock: the clock waited %.2f wall seconds for %s' % (now() - self.since, self.holding))
+            self.holding, self.since = holder, now()
+
+    def finish(self):
+        holds, held_s, last = self.board.holds()
+        try:
+            rospy.set_param(HOLDS_PARAM, {'count': holds, 'wall_s': held_s, 'last': last})
+        except (OSError, rospy.ROSException):  # the master went first
+            pass
+        if holds:
+            rospy.loginfo('sim_clock: the clock waited %d times for its slowest participant, %.2f wall seconds in '
+                          'all (the last for %s): the run took that much longer, and nothing missed a deadline',
+                          holds, held_s, last)
+        try:
+            os.unlink(self.board.path)
+        except OSError:
+            pass

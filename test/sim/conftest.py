@@ -5,11 +5,12 @@ process, the client and the fixtures are the package's public test kit
 (offboard_py.testing.sim_client, offboard_py.testing.pytest_plugin), so this tier uses them as a
 user's package would: each test starts its own simulator instance (its own system id and ports)
 on an instance that is free at the time, at OFFBOARD_PY_SPEED, its client on the same simulated
-clock.
+clock: the session's governed clock, which waits for a simulator or a client starved of CPU.
 """
 
 from offboard_py.testing.tiers import run_elsewhere, run_shard
-from offboard_py.testing.pytest_plugin import pytest_runtest_makereport, sim_px4, start_sim  # noqa: F401 (fixtures)
+from offboard_py.testing.pytest_plugin import (  # noqa: F401 (fixtures, and the session's governed clock)
+    pytest_configure, pytest_runtest_makereport, pytest_unconfigure, sim_px4, start_sim)
 
 
 def pytest_collection_modifyitems(config, items):

@@ -46,7 +46,7 @@ def wall(monkeypatch):
 @pytest.fixture
 def guard(wall):
     g = ClockGuard.__new__(ClockGuard)  # without the parameter server: the speed is given
-    g.speed, g.worst_s, g.stalls = SPEED, 0.0, 0
+    g.speed, g.worst_s, g.stalls, g.participant = SPEED, 0.0, 0, None  # no board: speed x the monotonic clock
     return g
 
 

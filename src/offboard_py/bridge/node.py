@@ -11,12 +11,13 @@ import time
 
 import rospy
 
-from offboard_py import tcpros_out
+from offboard_py import ros_participant, tcpros_out
 from offboard_py.bridge.config import ConfigError, read_config
 from offboard_py.bridge.core import Bridge
 from offboard_py.dialect import check_pymavlink_version
 from offboard_py.master import await_master_from_argv
 from offboard_py.mavlink_link import MavlinkLink, UrlError
+from offboard_py.stream_watch import StreamWatch
 from offboard_py.bridge import (altitude, battery, command, diagnostics, global_position, home_position, imu,
                                 local_position, mavlink_passthrough, mission, param, rc_io, setpoint,
                                 setpoint_attitude, statustext, sys_status, sys_time, tf_frames, vfr_hud)
@@ -45,6 +46,7 @@ class RospyEndpoints:
 
     def __init__(self):
         self.flusher = tcpros_out.Flusher()
+        self.streams = StreamWatch()  # the setpoint streams by publisher, for the governed clock
 
     def publisher(self, name, data_class, queue_size, latch, on_subscribers):
         """on_subscribers() is called when the topic gains or loses a subscriber. A subscriber's
@@ -52,8 +54,14 @@ class RospyEndpoints:
         return tcpros_out.Publisher(name, data_class, queue_size, self.flusher, latch=latch,
                                     subscriber_listener=_SubscribersMoved(on_subscribers))
 
-    @staticmethod
-    def subscriber(name, data_class, callback):
+    def subscriber(self, name, data_class, callback):
+        if 'setpoint' in name:  # when each publisher's setpoints came, in simulated and wall time
+            handle = callback
+
+            def callback(msg):
+                header = getattr(msg, '_connection_header', None) or {}
+                self.streams.arrived(header.get('callerid', '?'), rospy.get_time(), time.monotonic())
+                handle(msg)
         # setpoints: each one matters and waits for no other, so no Nagle batching
         return rospy.Subscriber(name, data_class, callback, queue_size=10, tcp_nodelay=True)
 
@@ -141,7 +149,8 @@ def main():
         check_pymavlink_version()  # to /rosout, through the handler above
         cfg = read_config(lambda name, default: rospy.get_param('~' + name, default))
         link, gcs = open_links(cfg)
-        bridge = Bridge(cfg, link, RospyEndpoints(), PLUGINS, gcs=gcs, clock=ros_clock())
+        endpoints = RospyEndpoints()
+        bridge = Bridge(cfg, link, endpoints, PLUGINS, gcs=gcs, clock=ros_clock())
     except (ConfigError, UrlError, OSError) as err:
         rospy.logfatal('mavros bridge: %s', err)
         return 2
@@ -157,8 +166,13 @@ def main():
         rospy.loginfo('MAVLink signing on (key %s): unsigned input is %s', cfg['signing/key_file'],
                       'rejected' if cfg['signing/required'] else 'accepted')
     bridge.start()
+    # the governed clock waits for this bridge, and for a node whose setpoint stream here has stalled
+    participant = ros_participant.join('bridge %s' % rospy.get_name(),
+                                       limit=lambda: endpoints.streams.limit(time.monotonic()))
     try:
         rospy.spin()
     finally:
+        if participant is not None:
+            participant.leave()
         bridge.stop()
     return 0

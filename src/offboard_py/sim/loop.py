@@ -28,6 +28,7 @@ def run_together(sims, duration_s=None, on_stall=None):
     if any(sim.clock is not clock or sim.rate_hz != first.rate_hz or sim.steps_per_wakeup != batch for sim in sims):
         raise ValueError('simulated PX4s run together share one clock, rate and steps per wake-up')
     speed = getattr(clock, 'speed', 1.0)
+    governed = getattr(clock, 'board', None) is not None
     # epoll: a fleet's process asks for its 2 sockets a vehicle at every wake-up and after every vehicle's
     # burst, and poll() looks at all of them each time (64 for 32 vehicles) where epoll hands over the ready
     poller = select.epoll()
@@ -57,7 +58,11 @@ def run_together(sims, duration_s=None, on_stall=None):
         while any(sim.running for sim in sims) and (end_s is None or clock() < end_s):
             wake_s = next_s + (batch - 1) * period
             until_s = min([wake_s] + [d[0] for sim in sims for d in sim.command_sender.deferred])
-            for fd, _ in poller.poll(max(0.0, until_s - clock()) / speed):
+            wait_s = max(0.0, until_s - clock()) / speed
+            if governed:  # the clock may be held: look again soon, and say how far this loop has got
+                clock.progress()
+                wait_s = min(wait_s, clock.POLL_WALL_S)
+            for fd, _ in poller.poll(wait_s):
                 by_fd[fd].receive()
             now = clock()
             for sim in sims:

@@ -11,6 +11,7 @@ import signal
 import sys
 import time
 
+from offboard_py.clock_board import BoardError
 from offboard_py.dialect import check_pymavlink_version
 from offboard_py.signing import SigningKeyError
 from offboard_py.simtime import SimClock, speed_option
@@ -236,7 +237,11 @@ def main(argv=None):
         logging.error('--local-port, --remote-port and --gcs-port name one vehicle\'s ports: with --vehicles, '
                       'each vehicle takes its instance\'s (14580+N, 14540+N, 18570+N)')
         return 2
-    clock = SimClock(args.speed)
+    try:  # the run's governed clock, where it has one (offboard_py.clock_board), this process a participant
+        clock = SimClock.for_run(args.speed, name='sim_px4 %d' % args.instance)
+    except BoardError as err:
+        logging.error('%s', err)
+        return 2
     sims = []
     try:
         for k in range(args.vehicles):
@@ -284,6 +289,7 @@ def main(argv=None):
     try:
         run_together(sims, on_stall=None if stall_log is None else stall_log.record)
     finally:
+        clock.leave()
         for sim in sims:
             sim.close()
         for setpoint_log in setpoint_logs:

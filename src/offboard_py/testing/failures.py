@@ -50,7 +50,7 @@ class Failures:
     instance's extra port 9); `speed`: the simulated clock's (default OFFBOARD_PY_SPEED)."""
 
     def __init__(self, instance, gcs_port=None, local_port=None, speed=None, system_id=255, heartbeat=True):
-        self.clock = SimClock(speed_from_env(1.0) if speed is None else speed)
+        self.clock = SimClock.for_run(speed_from_env(1.0) if speed is None else speed, strict=False)
         local_port = ports.extra_port(instance, GCS_LOCAL_PORT_K) if local_port is None else local_port
         self.client = Client(instance, self.clock, system_id=system_id, port=local_port)
         vehicle = ('127.0.0.1', sitl_ports.gcs_port(instance) if gcs_port is None else gcs_port)

@@ -28,6 +28,7 @@ import socket
 import sys
 
 from offboard_py.conversation.recording import PcapWriter
+from offboard_py.clock_board import BoardError, ThreadParticipant
 from offboard_py.simtime import SimClock, SpeedError
 
 
@@ -100,10 +101,12 @@ def parse_control(text):
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     try:
-        clock = SimClock(args.speed)
-    except SpeedError as err:
+        clock = SimClock.for_run(args.speed)
+    except (SpeedError, BoardError) as err:
         print('lossy_relay: %s' % err, file=sys.stderr)
         return 2
+    # on a governed clock the relay is a participant: the clock waits while it is off the CPU
+    participant = ThreadParticipant(clock.board, 'relay') if clock.board is not None else None
     rng = random.Random(args.seed)
     recorder = None
     if args.record:
@@ -197,6 +200,8 @@ def main(argv=None):
     except KeyboardInterrupt:
         print('lossy_relay: %s' % stats)
     finally:
+        if participant is not None:
+            participant.leave()
         if recorder is not None:
             recorder.close()
     return 0

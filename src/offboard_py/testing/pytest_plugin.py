@@ -20,11 +20,48 @@ Each simulator gets an instance whose ports are free (20..37 of offboard_py.test
 at OFFBOARD_PY_SPEED (1 when unset) unless given --speed, must send its first HEARTBEAT within
 10 wall seconds (else the test fails with the simulator's output), and is stopped and reaped at
 teardown whatever the test did; a test that fails prints each simulator's output.
+
+The session's simulators and clients run on one governed clock (offboard_py.clock_board): this process
+governs it from a thread, every simulator and client is a participant, so a simulator or a test starved
+of CPU holds the clock instead of missing a simulated deadline. OFFBOARD_PY_CLOCK_BOARD= (empty) leaves
+the clock ungoverned (speed x the monotonic clock).
 """
+
+import os
 
 import pytest
 
+from offboard_py import clock_board
+from offboard_py.simtime import speed_from_env
 from offboard_py.testing.sim_client import start_simulated_px4
+
+_governed = {}
+
+
+def pytest_configure(config):
+    """The session's clock board, governed from a thread of this process, for its simulators and clients."""
+    if clock_board.BOARD_ENV in os.environ:
+        return  # given (or turned off, empty) by the caller
+    path = os.path.join(clock_board.BOARD_DIR, 'offboard_py-clock-pytest-%d' % os.getpid())
+    board = clock_board.Board(path, speed_from_env(1.0))
+    os.environ[clock_board.BOARD_ENV] = path
+    _governed.update(board=board, governor=clock_board.GovernorThread(board))
+
+
+def pytest_unconfigure(config):
+    if not _governed:
+        return
+    _governed['governor'].stop()
+    holds, held_s, last = _governed['board'].holds()
+    if holds:
+        print('\nthe governed clock waited %d times for its slowest participant, %.2f wall seconds in all (the last '
+              'for %s)' % (holds, held_s, last))
+    try:
+        os.unlink(_governed['board'].path)
+    except OSError:
+        pass
+    os.environ.pop(clock_board.BOARD_ENV, None)
+    _governed.clear()
 
 
 @pytest.fixture

@@ -25,7 +25,7 @@ from mavros_msgs.msg import AttitudeTarget, ExtendedState, GlobalPositionTarget,
 from mavros_msgs.srv import CommandBool, SetMode
 from rosgraph_msgs.msg import Log
 
-from offboard_py import frames
+from offboard_py import frames, ros_participant
 
 CLOCK_START_TIMEOUT_S = 30.0  # wall seconds for the first /clock in simulated time
 START_WALL_S = 15.0  # wall seconds a connection wait allows at least: nodes start in wall time
@@ -55,18 +55,30 @@ def now():
 
 
 class ClockGuard:
-    """How far this node's ROS time trails the vehicles' clock (speed x the monotonic clock,
-    offboard_py.simtime) in simulated time; 0 in real time."""
+    """How far this node's ROS time trails the vehicles' clock (the run's governed clock, offboard_py.clock_board,
+    or speed x the monotonic clock without one) in simulated time; 0 in real time. This node is a participant
+    of the governed clock: the clock waits while it falls behind, so a lag over the bound means this node
+    stopped keeping up for longer than the board's stale time."""
 
     def __init__(self):
         self.speed = float(rospy.get_param('/sim_clock/speed', 1.0)) if _sim_time() else 1.0
         self.worst_s = 0.0
         self.stalls = 0  # lags over MAX_CLOCK_LAG_S that went within CATCH_UP_WALL_S
+        self.participant = ros_participant.join('test %s' % rospy.get_name()) if self.speed != 1.0 else None
+
+    def vehicles_s(self):
+        if self.participant is not None:
+            return self.participant.board.now()
+        return self.speed * time.monotonic()
+
+    def holds(self):
+        """(count, wall seconds, last holder) of the clock's waits for its slowest participant, or None."""
+        return self.participant.board.holds() if self.participant is not None else None
 
     def lag_s(self):
         if self.speed == 1.0:
             return 0.0
-        lag = self.speed * time.monotonic() - now()
+        lag = self.vehicles_s() - now()
         self.worst_s = max(self.worst_s, lag)
         return lag
 
@@ -290,6 +302,14 @@ class OffboardTestCase(unittest.TestCase):
         if self.clock_guard is None:
             OffboardTestCase.clock_guard = ClockGuard()
         return self.clock_guard
+
+    @classmethod
+    def tearDownClass(cls):
+        guard = OffboardTestCase.clock_guard
+        holds = guard.holds() if guard is not None else None
+        if holds and holds[0]:
+            rospy.loginfo('the governed clock waited %d times for its slowest participant, %.2f wall seconds in all '
+                          '(the last for %s): this run took that much longer, and no deadline moved', *holds)
 
     def guard(self):
         """Fail now if the ROS side cannot keep up with the simulated clock."""

@@ -17,6 +17,7 @@ test reads the same at any speed. Wall-clock limits (starting the process, the k
 socket buffer) stay in wall seconds.
 """
 
+import os
 import select
 import signal
 import socket
@@ -26,7 +27,7 @@ import threading
 import time
 import warnings
 
-from offboard_py import px4_modes
+from offboard_py import clock_board, px4_modes
 from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, check_pymavlink_version, mavlink
 from offboard_py.mavlink_link import SO_TIMESTAMPNS, STAMP_ANCILLARY_BYTES, kernel_stamp_ns
 from offboard_py.signing import signing_timestamp_now
@@ -65,6 +66,18 @@ def speed_in(args):
     return None
 
 
+def _session_clock(speed):
+    """(the clock a simulator at `speed` runs on, the environment to start it with): the governed clock of
+    this process's board ($OFFBOARD_PY_CLOCK_BOARD, which the pytest plugin sets for a session) when it runs
+    at that speed, else speed x the monotonic clock, the simulator told to use no board."""
+    if os.environ.get(clock_board.BOARD_ENV):
+        try:
+            return SimClock.for_run(speed), None
+        except clock_board.BoardError:  # another speed than the session's: a clock of its own
+            pass
+    return SimClock(speed), dict(os.environ, **{clock_board.BOARD_ENV: ''})
+
+
 class SimProcess(OutputProcess):
     """The simulated PX4 as instance INSTANCE with ARGS (sim_px4.py's options), run by this Python
     with the caller's environment, at --speed OFFBOARD_PY_SPEED unless ARGS say otherwise.
@@ -87,9 +100,9 @@ class SimProcess(OutputProcess):
         if speed is None:
             speed = speed_from_env(1.0)
             args += ('--speed', '%g' % speed)
-        self.clock = SimClock(speed)
+        self.clock, env = _session_clock(speed)
         super().__init__(list(SIM_COMMAND) + ['-i', str(instance), '--gcs-remote-port', str(self.gcs_port)]
-                         + list(args))
+                         + list(args), env=env)
 
     def stop(self):
         """Stop it (SIGTERM, then SIGKILL after 5 s) and reap it; its exit code."""
@@ -137,6 +150,9 @@ class Client:
         self._running = True
         self._rx = threading.Thread(target=self._receive, daemon=True)
         self._rx.start()
+        # on a governed clock this client is a participant: the clock waits while this process is off the CPU
+        self._participant = (clock_board.ThreadParticipant(clock.board, 'client of %d' % instance)
+                             if getattr(clock, 'board', None) is not None else None)
 
     def _receive(self):
         """Each datagram whole, stamped with the kernel's arrival time: what the vehicle sent when,
@@ -173,7 +189,7 @@ class Client:
         stamp_ns = kernel_stamp_ns(ancdata)
         if stamp_ns is None:
             return self.clock.now()
-        return self.clock.sim_s(stamp_ns * 1e-9 - (time.time() - time.monotonic()))
+        return self.clock.at_monotonic(stamp_ns * 1e-9 - (time.time() - time.monotonic()))
 
     def send(self, msg):
         with self.lock:
@@ -199,6 +215,8 @@ class Client:
 
     def close(self):
         self.stop_stream()
+        if self._participant is not None:
+            self._participant.leave()
         self._running = False
         self._rx.join(timeout=2)
         self.port.close()

@@ -1,0 +1,52 @@
+"""A ROS node as a participant of the run's governed clock (offboard_py.clock_board): in simulated time, a
+thread writes the node's ROS time (the last /clock it took) into its slot of the board 100 times a wall
+second, so the clock waits while this node falls behind (starved of CPU) instead of running on without it.
+Nothing in real time, nor in simulated time without a board."""
+
+import threading
+import time
+
+import rospy
+
+from offboard_py.clock_board import Board, BoardError, board_path
+
+UPDATE_WALL_S = 0.01
+
+
+class RosParticipant:
+    """The slot of this node, kept up to date by a daemon thread until leave()."""
+
+    def __init__(self, board, name, limit=None):
+        """limit(): a simulated time this participant must not be taken past, or None (the bridge's setpoint
+        streams: offboard_py.stream_watch)."""
+        self.board = board
+        self.limit = limit
+        self.participant = board.join(name)
+        self.running = True
+        self.thread = threading.Thread(target=self._run, name='clock participant', daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        while self.running and not rospy.core.is_shutdown():
+            t = rospy.get_time()
+            if t > 0.0:
+                held = self.limit() if self.limit is not None else None
+                self.participant.update(t if held is None else min(t, held))
+            time.sleep(UPDATE_WALL_S)
+        self.participant.leave()
+
+    def leave(self):
+        self.running = False
+
+
+def join(name, limit=None):
+    """The node's RosParticipant in simulated time with a board, else None. Needs rospy.init_node first."""
+    if rospy.get_param('/use_sim_time', False) is not True:
+        return None
+    try:
+        speed = float(rospy.get_param('/sim_clock/speed', 1.0))
+        path = board_path(speed)
+        return RosParticipant(Board(path, speed), name, limit) if path else None
+    except (BoardError, ValueError) as err:
+        rospy.logwarn('%s: not a participant of the governed clock: %s', name, err)
+        return None
