@@ -194,11 +194,23 @@ class BridgeTest(OffboardTestCase):
             time.sleep(0.2)
         time.sleep(0.3)
 
-    def sent_to_fcu(self, topic, data_class, messages, name):
-        """Publish `messages` on the silent bridge's `topic`; what the FCU got as `name`."""
+    def sent_to_fcu(self, topic, data_class, messages, name, tries=4):
+        """Publish `messages` on the silent bridge's `topic`; what the FCU got as `name`. A first message on a
+        fresh publisher can be lost although the connection is counted (rospy; seen once on a busy machine
+        under two busy loops): published again, up to `tries` times, a wall second apart, until one comes."""
         pub = rospy.Publisher(topic, data_class, queue_size=10)
         try:
             self.wait_until(lambda: pub.get_num_connections() > 0, 5.0, 'the bridge subscribing to %s' % topic)
+            for _ in range(tries - 1):
+                before = len(self.fcu.of_type(name))
+                for msg in messages:
+                    pub.publish(msg)
+                deadline = time.monotonic() + 1.0
+                while len(self.fcu.of_type(name)) == before and time.monotonic() < deadline:
+                    time.sleep(0.02)
+                if len(self.fcu.of_type(name)) > before:
+                    time.sleep(0.3)  # anything sent after it would have arrived by now
+                    return self.fcu.of_type(name)[before:]
             before = len(self.fcu.of_type(name))
             for msg in messages:
                 pub.publish(msg)

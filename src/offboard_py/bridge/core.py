@@ -71,6 +71,7 @@ class Bridge:
         self.on_raw('ATTITUDE_QUATERNION', self.attitude.update)
         self.plugins = [plugin(self) for plugin in plugins]
         self._running = False
+        self.next_task_s = None  # when the receive loop must next run a task (bridge clock), for the governed clock
         self._thread = None
 
     # -- MAVLink ------------------------------------------------------------------------------
@@ -295,6 +296,7 @@ class Bridge:
             if due_s is None or self.scheduler.added:
                 due_s = self.scheduler.next_due_s()
             wait_s = longest_wait_s if due_s is None else min(longest_wait_s, max(0.0, due_s - self._clock()))
+            self.next_task_s = due_s  # the governed clock may not run far past it before this loop runs it
             try:
                 for fd, _ in poller.poll(wait_s * 1000.0):
                     links[fd].receive()

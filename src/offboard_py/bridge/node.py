@@ -136,6 +136,12 @@ def ros_clock():
     return time.monotonic
 
 
+def _earliest(*times):
+    """The earliest of the times that are not None, or None."""
+    given = [t for t in times if t is not None]
+    return min(given) if given else None
+
+
 def main():
     exit_code = await_master_from_argv('mavros')
     if exit_code is not None:
@@ -167,8 +173,8 @@ def main():
                       'rejected' if cfg['signing/required'] else 'accepted')
     bridge.start()
     # the governed clock waits for this bridge, and for a node whose setpoint stream here has stalled
-    participant = ros_participant.join('bridge %s' % rospy.get_name(),
-                                       limit=lambda: endpoints.streams.limit(time.monotonic()))
+    participant = ros_participant.join('bridge %s' % rospy.get_name(), limit=lambda: _earliest(
+        endpoints.streams.limit(time.monotonic()), bridge.next_task_s))
     try:
         rospy.spin()
     finally:
