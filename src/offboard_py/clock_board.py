@@ -72,7 +72,8 @@ def board_path(speed, environ=os.environ):
     return os.path.join(BOARD_DIR, 'offboard_py-clock-%s' % re.sub(r'[^A-Za-z0-9]+', '_', master).strip('_'))
 
 
-def _pid_alive(pid):
+def pid_alive(pid):
+    """True while a process `pid` runs (a process of another user's counts)."""
     if pid <= 0:
         return False
     try:
@@ -140,7 +141,7 @@ class Board:
                                                 0.0, b'')
 
     def _governor_or_participants_alive(self, header):
-        return _pid_alive(header[6]) or any(_pid_alive(slot[1]) for slot in self._slots())
+        return pid_alive(header[6]) or any(pid_alive(slot[1]) for slot in self._slots())
 
     def now(self):
         """Simulated seconds: speed x the monotonic clock since the base, held at the horizon."""
@@ -183,7 +184,7 @@ class Board:
             fcntl.flock(fd, fcntl.LOCK_EX)
             try:
                 for i, pid, _, _, _, _ in self._slots():
-                    if pid == 0 or not _pid_alive(pid):
+                    if pid == 0 or not pid_alive(pid):
                         participant = Participant(self, i, name)
                         participant.update(self.now())
                         return participant
@@ -197,7 +198,7 @@ class Board:
         """[(name, pid, progress_s, updated_mono)] of the slots in use by live processes."""
         out = []
         for _, pid, _, progress, updated, name in self._slots():
-            if pid and _pid_alive(pid):
+            if pid and pid_alive(pid):
                 out.append((name.rstrip(b'\0').decode(errors='replace'), pid, progress, updated))
         return out
 

@@ -37,6 +37,7 @@ import time
 
 import pytest
 
+from offboard_py.clock_board import pid_alive
 from offboard_py.testing.processes import OutputProcess
 
 SUBNET_PREFIX = '10.231.0.'
@@ -93,16 +94,6 @@ def why_no_netns():
     return None
 
 
-def pid_running(pid):
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def delete_netns(name):
     """Kill what still runs in the namespace (by pid), then delete it."""
     for pid in ip('netns', 'pids', name).split():
@@ -117,7 +108,7 @@ def delete_stale_netns():
     """Namespaces of an earlier run of this test killed before it could clean up (its pid is gone)."""
     for name in netns_names():
         match = NETNS_PATTERN.match(name)
-        if match and not pid_running(int(match.group(1))):
+        if match and not pid_alive(int(match.group(1))):
             delete_netns(name)
 
 
