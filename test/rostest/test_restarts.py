@@ -12,6 +12,7 @@
 import os
 import signal
 import subprocess
+import time
 import xmlrpc.client
 
 import rosgraph
@@ -24,9 +25,20 @@ from offboard_py.testing.rostest_common import START_WALL_S, OffboardTestCase, R
 PKG = 'offboard_py'
 
 
-def node_pid(name):
-    uri = rosgraph.Master('/test_restarts').lookupNode(name)
-    code, _, pid = xmlrpc.client.ServerProxy(uri).getPid('/test_restarts')
+def node_pid(name, timeout_s=30.0):
+    """The pid of node `name`, asked of the node the master names. Right after a respawn the master may still
+    name the killed node (its last messages can arrive after the kill, so a test can get here first): asked
+    again, for at most timeout_s wall seconds, until a node answers."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        uri = rosgraph.Master('/test_restarts').lookupNode(name)
+        try:
+            code, _, pid = xmlrpc.client.ServerProxy(uri).getPid('/test_restarts')
+            break
+        except OSError as err:  # refused: the node that registered this URI is gone
+            if time.monotonic() > deadline:
+                raise AssertionError('node %s at %s did not answer within %.0f s: %s' % (name, uri, timeout_s, err))
+            time.sleep(0.5)
     assert code == 1, 'getPid on %s failed' % name
     return pid
 

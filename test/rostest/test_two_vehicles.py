@@ -17,13 +17,19 @@ REQUEST_INTERVAL_S = 5.0
 
 
 def simulator_processes():
-    """{node name: the instances it serves} of each simulator process roslaunch started here (the simulated
-    PX4 speaks MAVLink, not ROS, so the master does not know it), from sim_px4.py's command line."""
+    """{node name: the instances it serves} of each simulator process roslaunch started for this master (the
+    simulated PX4 speaks MAVLink, not ROS, so the master does not know it), from sim_px4.py's command line.
+    Only this master's: /proc shows every process of the machine, those of other tests run in other network
+    namespaces at the same time too (a run saw another test's sim_px4 -i 20 here)."""
     found = {}
+    master = ('ROS_MASTER_URI=%s' % os.environ.get('ROS_MASTER_URI', '')).encode()
     for pid in filter(str.isdigit, os.listdir('/proc')):
         try:
             with open('/proc/%s/cmdline' % pid, 'rb') as f:
                 argv = f.read().decode(errors='replace').split('\0')
+            with open('/proc/%s/environ' % pid, 'rb') as f:
+                if master not in f.read().split(b'\0'):
+                    continue  # another master's
         except OSError:
             continue  # gone meanwhile
         names = [a.split(':=', 1)[1] for a in argv if a.startswith('__name:=')]
