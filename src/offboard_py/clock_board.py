@@ -19,8 +19,8 @@ sensor step; Gazebo's real-time factor only caps the speed. Here every participa
 none has to answer each step: the lead (0.03 wall seconds at the run's speed) is what the fastest may
 run ahead of the slowest.
 
-A participant whose slot has not moved for `stale_wall_s` wall seconds (2 by default: a process stopped, or
-stuck) is left out, and that is reported; a slot whose process has ended is freed. Every hold longer than a
+A participant whose progress has not moved on for STALE_WALL_S wall seconds (2: a process stopped, or stuck,
+or a clock held that long for anyone) is left out, and that is reported; a slot whose process has ended is freed. Every hold longer than a
 tenth of a wall second is counted with the participant that held it (`holds()`), so a run can say where its
 time went. No ROS, no MAVLink here.
 """
@@ -286,18 +286,24 @@ class GovernorThread:
 
 
 class Participant:
-    """One slot of the board: update(progress_s) says how far this participant has got."""
+    """One slot of the board: update(progress_s) says how far this participant has got. The slot's time is when
+    its progress last moved on: a participant that keeps writing the same progress is as stale as a silent
+    one after STALE_WALL_S, so no hold lasts longer, whatever holds it (a stopped process, a clock that
+    runs behind on purpose, a deadlock)."""
 
     def __init__(self, board, index, name):
         self.board, self.offset = board, _HEADER.size + index * _SLOT.size
         self.name = name.encode()[:NAME_BYTES]
         self.seq = 0
         self.pid = os.getpid()
+        self.progress_s, self.moved_mono = float('-inf'), board._monotonic()
 
     def update(self, progress_s):
         self.seq += 1
+        if progress_s > self.progress_s:
+            self.progress_s, self.moved_mono = progress_s, self.board._monotonic()
         self.board._map[self.offset:self.offset + _SLOT.size] = _SLOT.pack(
-            self.seq, self.pid, 0, progress_s, self.board._monotonic(), self.name)
+            self.seq, self.pid, 0, progress_s, self.moved_mono, self.name)
 
     def leave(self):
         self.board._map[self.offset:self.offset + _SLOT.size] = bytes(_SLOT.size)

@@ -166,3 +166,19 @@ def test_a_stalled_setpoint_stream_holds_the_clock_for_a_while_only():
     assert watch.limit(wall) == pytest.approx(sim + 0.1)
     watch.forget('/my_node')
     assert watch.limit(wall) is None
+
+
+def test_a_participant_whose_progress_stands_still_is_left_out_after_the_stale_time(tmp_path, wall):
+    """It keeps writing, but the same time (a ROS node whose /clock runs behind on purpose): no hold lasts
+    longer than the stale time."""
+    board = board_at(tmp_path, wall)
+    stuck = board.join('stuck')
+    board.govern()
+    for _ in range(int(clock_board.STALE_WALL_S / 0.01) + 20):
+        wall.t += 0.01
+        stuck.update(499.0)
+        holder, stale = board.govern()
+    assert stale == ['stuck'] and holder is None
+    held = board.now()
+    wall.t += 0.1
+    assert board.now() == pytest.approx(held + 0.5), 'runs again'
