@@ -194,14 +194,17 @@ class BridgeTest(OffboardTestCase):
             time.sleep(0.2)
         time.sleep(0.3)
 
-    def sent_to_fcu(self, topic, data_class, messages, name, tries=4):
+    def sent_to_fcu(self, topic, data_class, messages, name, tries=4, prepare=None):
         """Publish `messages` on the silent bridge's `topic`; what the FCU got as `name`. A first message on a
         fresh publisher can be lost although the connection is counted (rospy; seen once on a busy machine
-        under two busy loops): published again, up to `tries` times, a wall second apart, until one comes."""
+        under two busy loops): published again, up to `tries` times, a wall second apart, until one comes;
+        prepare() before each (fresh stamps, a paired message first)."""
         pub = rospy.Publisher(topic, data_class, queue_size=10)
         try:
             self.wait_until(lambda: pub.get_num_connections() > 0, 5.0, 'the bridge subscribing to %s' % topic)
             for _ in range(tries - 1):
+                if prepare is not None:
+                    prepare()
                 before = len(self.fcu.of_type(name))
                 for msg in messages:
                     pub.publish(msg)
@@ -211,6 +214,8 @@ class BridgeTest(OffboardTestCase):
                 if len(self.fcu.of_type(name)) > before:
                     time.sleep(0.3)  # anything sent after it would have arrived by now
                     return self.fcu.of_type(name)[before:]
+            if prepare is not None:
+                prepare()
             before = len(self.fcu.of_type(name))
             for msg in messages:
                 pub.publish(msg)
@@ -245,14 +250,16 @@ class BridgeTest(OffboardTestCase):
         thrust_pub = rospy.Publisher(ns + 'setpoint_attitude/thrust', Thrust, queue_size=10)
         try:
             self.wait_until(lambda: thrust_pub.get_num_connections() > 0, 5.0, 'the bridge subscribing to thrust')
-            thrust = Thrust(thrust=0.4)
-            thrust.header.stamp = rospy.Time.now()
-            thrust_pub.publish(thrust)
-            time.sleep(0.2)
-            cmd = TwistStamped()
-            cmd.header.stamp = rospy.Time.now()
+            thrust, cmd = Thrust(thrust=0.4), TwistStamped()
             cmd.twist.angular.x, cmd.twist.angular.y, cmd.twist.angular.z = 0.1, 0.2, 0.3
-            got = self.sent_to_fcu(ns + 'setpoint_attitude/cmd_vel', TwistStamped, [cmd], 'SET_ATTITUDE_TARGET')
+
+            def pair():  # the thrust first, then the rates 0.2 s later: within the bridge's 0.5 s pairing window
+                thrust.header.stamp = rospy.Time.now()
+                thrust_pub.publish(thrust)
+                time.sleep(0.2)
+                cmd.header.stamp = rospy.Time.now()
+            got = self.sent_to_fcu(ns + 'setpoint_attitude/cmd_vel', TwistStamped, [cmd], 'SET_ATTITUDE_TARGET',
+                                   prepare=pair)
         finally:
             thrust_pub.unregister()
         self.assertEqual(len(got), 1)
