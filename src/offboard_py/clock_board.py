@@ -43,6 +43,7 @@ NAME_BYTES = 40
 LEAD_WALL_S = 0.03
 STALE_WALL_S = 2.0        # a participant silent this long (wall) is left out of the governing
 HOLD_REPORT_WALL_S = 0.1  # holds longer than this are counted
+READ_TRIES = 10000        # reads of a header being written before it is taken as it stands
 
 # header: magic, seq, speed, base_mono, base_sim, horizon, governor pid, hold count, held wall s, when the hold
 # under way began (0: none), when the last hold began, last holder
@@ -99,9 +100,12 @@ class Board:
             fcntl.flock(fd, fcntl.LOCK_EX)
             try:
                 made = os.fstat(fd).st_size != _SIZE
-                if made:
-                    os.ftruncate(fd, _SIZE)
-                self._map = mmap.mmap(fd, _SIZE)
+                try:
+                    if made:
+                        os.ftruncate(fd, _SIZE)
+                    self._map = mmap.mmap(fd, _SIZE)
+                except OSError as err:  # a full /dev/shm, a file of another kind
+                    raise BoardError('clock board %s: %s' % (path, err.strerror or err)) from None
                 header = None if made else self._read_header()
                 if header is None or header[0] != MAGIC or not self._governor_or_participants_alive(header):
                     self._init(speed)  # a new run (or what a run that has ended left)
@@ -118,11 +122,14 @@ class Board:
     # -- the clock, for every reader ----------------------------------------------------------------------
 
     def _read_header(self):
-        while True:
+        """The header as one write left it. A write is one copy of a few dozen bytes, so a torn read is read
+        again; a writer that died inside one (its count left odd) is not waited for past READ_TRIES."""
+        for _ in range(READ_TRIES):
             raw = self._map[:_HEADER.size]
             fields = _HEADER.unpack(raw)
             if fields[1] % 2 == 0 and self._map[8:16] == raw[8:16]:
                 return fields
+        return _HEADER.unpack(self._map[:_HEADER.size])
 
     def _write_header(self, **changes):
         fields = list(_HEADER.unpack(self._map[:_HEADER.size]))

@@ -182,3 +182,10 @@ def test_a_participant_whose_progress_stands_still_is_left_out_after_the_stale_t
     held = board.now()
     wall.t += 0.1
     assert board.now() == pytest.approx(held + 0.5), 'runs again'
+
+
+def test_a_writer_that_died_inside_a_write_does_not_hang_the_readers(tmp_path, wall):
+    board = board_at(tmp_path, wall)
+    seq = clock_board.struct.unpack('<Q', board._map[8:16])[0]
+    board._map[8:16] = clock_board.struct.pack('<Q', seq + 1)   # odd for good
+    assert board.now() == pytest.approx(500.0)
