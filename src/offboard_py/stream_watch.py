@@ -12,10 +12,14 @@ ALPHA = 0.1            # smoothing of the period
 
 
 class Stream:
-    __slots__ = ('count', 'period_s', 'last_s', 'last_wall_s')
+    __slots__ = ('count', 'period_s', 'last_s', 'last_wall_s', 'let_go')
 
     def __init__(self, sim_s, wall_s):
         self.count, self.period_s, self.last_s, self.last_wall_s = 1, None, sim_s, wall_s
+        self.let_go = False  # silent past the hold: the clock went on without it (said once, by let_go())
+
+    def steady(self):
+        return self.count >= STEADY_COUNT and self.period_s is not None and self.period_s <= MAX_PERIOD_S
 
 
 class StreamWatch:
@@ -35,13 +39,24 @@ class StreamWatch:
             stream.period_s = gap if stream.period_s is None else (1 - ALPHA) * stream.period_s + ALPHA * gap
         stream.count += 1
         stream.last_s, stream.last_wall_s = max(stream.last_s, sim_s), wall_s
+        stream.let_go = False
 
     def limit(self, wall_s):
         """The simulated time the clock may run to for the streams' sake, or None (no stream holds it)."""
         limits = [s.last_s + 2 * s.period_s for s in list(self.streams.values())
-                  if s.count >= STEADY_COUNT and s.period_s is not None and s.period_s <= MAX_PERIOD_S
-                  and wall_s - s.last_wall_s < self.hold_wall_s]
+                  if s.steady() and wall_s - s.last_wall_s < self.hold_wall_s]
         return min(limits) if limits else None
+
+    def let_go(self, wall_s):
+        """[(publisher, simulated s of its last setpoint)] of the steady streams that have now been silent past
+        the hold, each once until it streams again: the clock goes on without them (an offboard-loss failsafe may
+        follow), which the bridge says."""
+        gone = []
+        for publisher, s in list(self.streams.items()):
+            if not s.let_go and s.steady() and wall_s - s.last_wall_s >= self.hold_wall_s:
+                s.let_go = True
+                gone.append((publisher, s.last_s))
+        return gone
 
     def forget(self, publisher):
         """Its connection closed (the node ended): it holds nothing."""

@@ -86,7 +86,16 @@ class PositionSquareTest(OffboardTestCase):
         stamp, received = there()
         if received - stamp > MAX_POSE_LAG_S:
             rospy.logwarn('the pose at corner %r came %.2f s after its stamp', corner, received - stamp)
-        return stamp - start
+        return stamp - start, start
+
+    @staticmethod
+    def changes_since(vehicle, start):
+        """The vehicle's (s since start, mode, armed) at each change since ROS time start: why a leg took long."""
+        out = []
+        for t, s in vehicle.states_since(start):
+            if not out or out[-1][1:] != (s.mode, s.armed):
+                out.append((round(t - start, 2), s.mode, s.armed))
+        return out
 
     def test_square(self):
         vehicle = Vehicle('mavros')
@@ -101,10 +110,11 @@ class PositionSquareTest(OffboardTestCase):
 
         for leg, (corner, runs) in enumerate(zip(SQUARE, LEGS_S), 1):
             lo, hi = min(runs) * (1.0 - WIDEN), max(runs) * (1.0 + WIDEN)
-            took = self.fly_to(vehicle, corner, hi + 1.0)
+            took, start = self.fly_to(vehicle, corner, hi + 1.0)
             rospy.loginfo('leg %d to %r: %.2f s (PX4 %.1f-%.1f s)', leg, corner, took, min(runs), max(runs))
-            self.assertTrue(lo <= took <= hi, 'leg %d to ENU %r took %.2f s; PX4 %.1f-%.1f s, allowed %.2f-%.2f s'
-                            % (leg, corner, took, min(runs), max(runs), lo, hi))
+            self.assertTrue(lo <= took <= hi, 'leg %d to ENU %r took %.2f s; PX4 %.1f-%.1f s, allowed %.2f-%.2f s; '
+                            'the vehicle meanwhile (s, mode, armed): %r'
+                            % (leg, corner, took, min(runs), max(runs), lo, hi, self.changes_since(vehicle, start)))
 
         flight = [(round(t - flying, 2), s.mode, s.armed) for t, s in vehicle.states_since(flying)]
         self.assertTrue(flight, 'no state during the square')

@@ -173,6 +173,20 @@ def test_a_stalled_setpoint_stream_holds_the_clock_for_a_while_only():
     assert watch.limit(wall) is None
 
 
+def test_a_setpoint_stream_given_up_is_said_once_until_it_streams_again():
+    from offboard_py.stream_watch import HOLD_WALL_S, STEADY_COUNT, StreamWatch
+    watch = StreamWatch()
+    sim, wall = 10.0, 100.0
+    for _ in range(STEADY_COUNT):
+        sim, wall = sim + 0.05, wall + 0.01
+        watch.arrived('/my_node', sim, wall)
+    assert watch.let_go(wall + HOLD_WALL_S - 0.01) == [], 'not given up while it may hold the clock'
+    assert watch.let_go(wall + HOLD_WALL_S) == [('/my_node', pytest.approx(sim))], 'given up, with its last time'
+    assert watch.let_go(wall + 2 * HOLD_WALL_S) == [], 'said once'
+    watch.arrived('/my_node', sim + 1.0, wall + 1.0)
+    assert watch.let_go(wall + 1.0 + HOLD_WALL_S) == [('/my_node', pytest.approx(sim + 1.0))], 'again once back'
+
+
 def test_a_participant_whose_progress_stands_still_is_left_out_after_the_stale_time(tmp_path, wall):
     """It keeps writing, but the same time (a ROS node whose /clock runs behind on purpose): no hold lasts
     longer than the stale time."""

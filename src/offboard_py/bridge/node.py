@@ -142,6 +142,17 @@ def _earliest(*times):
     return min(given) if given else None
 
 
+def _clock_limit(endpoints, bridge):
+    """How far the governed clock may run for this bridge's sake: its receive loop's next task, and the setpoint
+    streams that may be starved rather than stopped (offboard_py.stream_watch); a stream given up is said."""
+    wall_s = time.monotonic()
+    for publisher, last_s in endpoints.streams.let_go(wall_s):
+        rospy.loginfo('the setpoints from %s stopped at %.2f s and have not come for %.1f wall seconds: the clock '
+                      'goes on without them (PX4 takes the offboard signal as lost after COM_OF_LOSS_T)',
+                      publisher, last_s, endpoints.streams.hold_wall_s)
+    return _earliest(endpoints.streams.limit(wall_s), bridge.next_task_s)
+
+
 def main():
     exit_code = await_master_from_argv('mavros')
     if exit_code is not None:
@@ -173,8 +184,7 @@ def main():
                       'rejected' if cfg['signing/required'] else 'accepted')
     bridge.start()
     # the governed clock waits for this bridge, and for a node whose setpoint stream here has stalled
-    participant = ros_participant.join('bridge %s' % rospy.get_name(), limit=lambda: _earliest(
-        endpoints.streams.limit(time.monotonic()), bridge.next_task_s))
+    participant = ros_participant.join('bridge %s' % rospy.get_name(), limit=lambda: _clock_limit(endpoints, bridge))
     try:
         rospy.spin()
     finally:
