@@ -19,7 +19,7 @@ sensor step; Gazebo's real-time factor only caps the speed. Here every participa
 none has to answer each step: the lead (0.03 wall seconds at the run's speed) is what the fastest may
 run ahead of the slowest.
 
-A participant whose progress has not moved on for STALE_WALL_S wall seconds (2: a process stopped, or stuck,
+A participant whose progress has not moved on for STALE_WALL_S wall seconds (10: a process stopped, or stuck,
 or a clock held that long for anyone) is left out, and that is reported; a slot whose process has ended is freed. Every hold longer than a
 tenth of a wall second is counted with the participant that held it (`holds()`), so a run can say where its
 time went. No ROS, no MAVLink here.
@@ -41,7 +41,10 @@ NAME_BYTES = 40
 # how far (wall seconds at the speed) the clock may run ahead of the slowest participant: a bridge's timer runs at
 # most this late (0.06 s simulated at 2x, within the conversation's 10 % of its 1 s version request)
 LEAD_WALL_S = 0.03
-STALE_WALL_S = 2.0        # a participant silent this long (wall) is left out of the governing
+# a participant silent this long (wall) is left out of the governing: longer than a starved process stays off the
+# CPU on a loaded machine (at 2, a test node stopped for 3 s lost its vehicle the offboard signal, as two loaded
+# runs' squares did)
+STALE_WALL_S = 10.0
 HOLD_REPORT_WALL_S = 0.1  # holds longer than this are counted
 READ_TRIES = 10000        # reads of a header being written before it is taken as it stands
 
@@ -84,6 +87,38 @@ def pid_alive(pid):
     except PermissionError:
         return True
     return True
+
+
+LEFT_OVER_S = 3600.0  # a board untouched this long (mtime) whose processes have all ended is what a killed run left
+
+
+def sweep(directory=BOARD_DIR, older_than_s=LEFT_OVER_S, now=time.time):
+    """Remove the boards that runs killed before their governor could remove them: untouched for older_than_s,
+    and no process of theirs alive (a run that merely started long ago keeps its board). Returns their paths."""
+    removed = []
+    try:
+        names = os.listdir(directory)
+    except OSError:
+        return removed
+    for name in names:
+        path = os.path.join(directory, name)
+        if not name.startswith('offboard_py-clock-'):
+            continue
+        try:
+            if now() - os.stat(path).st_mtime < older_than_s:
+                continue
+            with open(path, 'rb') as f:
+                data = f.read(_SIZE + 1)
+            if len(data) == _SIZE and data[:8] == MAGIC:
+                pids = [_HEADER.unpack(data[:_HEADER.size])[6]] + [
+                    _SLOT.unpack_from(data, _HEADER.size + i * _SLOT.size)[1] for i in range(SLOTS)]
+                if any(pid_alive(pid) for pid in pids):
+                    continue
+            os.unlink(path)
+            removed.append(path)
+        except OSError:  # another process swept it, or it is not ours to remove
+            continue
+    return removed
 
 
 class Board:

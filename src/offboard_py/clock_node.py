@@ -26,7 +26,7 @@ import time
 import rospy
 from rosgraph_msgs.msg import Clock
 
-from offboard_py import tcpros_out
+from offboard_py import clock_board, tcpros_out
 from offboard_py.master import await_master_from_argv
 from offboard_py.clock_board import STALE_WALL_S, BoardError
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
@@ -143,6 +143,7 @@ class Governor:
     def __init__(self, board, log=None):
         self.board = board
         self.log = log or rospy.loginfo
+        clock_board.sweep()  # what killed runs left in /dev/shm
         self.holding, self.since = None, None
         self.reported_stale = set()
 

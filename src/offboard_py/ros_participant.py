@@ -18,22 +18,30 @@ class RosParticipant:
 
     def __init__(self, board, name, limit=None):
         """limit(): a simulated time this participant must not be taken past, or None (the bridge's setpoint
-        streams: offboard_py.stream_watch)."""
-        self.board = board
+        streams: offboard_py.stream_watch). The node joins with its first /clock: before it, it has no time to
+        keep up with, and nothing of it runs on the vehicles' clock."""
+        self.board, self.name = board, name
         self.limit = limit
-        self.participant = board.join(name)
+        self.participant = None
         self.running = True
         self.thread = threading.Thread(target=self._run, name='clock participant', daemon=True)
         self.thread.start()
 
     def _run(self):
-        while self.running and not rospy.core.is_shutdown():
-            t = rospy.get_time()
-            if t > 0.0:
-                held = self.limit() if self.limit is not None else None
-                self.participant.update(t if held is None else min(t, held))
-            time.sleep(UPDATE_WALL_S)
-        self.participant.leave()
+        try:
+            while self.running and not rospy.core.is_shutdown():
+                t = rospy.get_time()
+                if t > 0.0:
+                    if self.participant is None:
+                        self.participant = self.board.join(self.name)
+                    held = self.limit() if self.limit is not None else None
+                    self.participant.update(t if held is None else min(t, held))
+                time.sleep(UPDATE_WALL_S)
+        except BoardError as err:  # every slot taken: the run goes on without this node, and says so
+            rospy.logwarn('%s: not a participant of the governed clock: %s', self.name, err)
+        finally:
+            if self.participant is not None:
+                self.participant.leave()
 
     def leave(self):
         self.running = False

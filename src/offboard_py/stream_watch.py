@@ -7,7 +7,7 @@ deadline. Pure: the arrivals' simulated and wall times are given."""
 
 STEADY_COUNT = 20      # setpoints before a stream counts as steady
 MAX_PERIOD_S = 0.5     # simulated seconds: slower than 2 Hz is not a stream PX4's offboard mode keeps
-HOLD_WALL_S = 0.5      # wall seconds a silent steady stream may hold the clock
+HOLD_WALL_S = 2.0      # wall seconds a silent steady stream may hold the clock (a thread starved while its process runs)
 ALPHA = 0.1            # smoothing of the period
 
 

@@ -205,3 +205,22 @@ def test_a_writer_that_died_inside_a_write_does_not_hang_the_readers(tmp_path, w
     seq = clock_board.struct.unpack('<Q', board._map[8:16])[0]
     board._map[8:16] = clock_board.struct.pack('<Q', seq + 1)   # odd for good
     assert board.now() == pytest.approx(500.0)
+
+
+def test_the_sweep_removes_only_what_killed_runs_left(tmp_path, wall):
+    left = board_at(tmp_path, wall, name='offboard_py-clock-left')  # a run that ended without removing it
+    left_path = left.path
+    live_path = str(tmp_path / 'offboard_py-clock-live')
+    live = clock_board.Board(live_path, 5.0)
+    live.join('this process')                             # still in use
+    young_path = str(tmp_path / 'offboard_py-clock-young')
+    clock_board.Board(young_path, 5.0)                    # made a moment ago: its run may be starting
+    other = tmp_path / 'something-else'
+    other.write_bytes(b'not ours')
+    old = 1e9
+    for path in (left_path, live_path, str(other)):
+        os.utime(path, (old, old))
+    removed = clock_board.sweep(str(tmp_path), now=lambda: old + clock_board.LEFT_OVER_S + 1)
+    assert removed == [left_path]
+    assert not os.path.exists(left_path)
+    assert os.path.exists(live_path) and os.path.exists(young_path) and other.exists()

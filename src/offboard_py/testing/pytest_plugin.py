@@ -42,6 +42,7 @@ def pytest_configure(config):
     """The session's clock board, governed from a thread of this process, for its simulators and clients."""
     if clock_board.BOARD_ENV in os.environ:
         return  # given (or turned off, empty) by the caller
+    clock_board.sweep()  # what killed runs left in /dev/shm
     path = os.path.join(clock_board.BOARD_DIR, 'offboard_py-clock-pytest-%d' % os.getpid())
     board = clock_board.Board(path, speed_from_env(1.0))
     os.environ[clock_board.BOARD_ENV] = path
