@@ -53,14 +53,39 @@ def hostile_datagrams(rng, count, corruptible, ignorable, refused):
                            for _ in range(rng.randint(2, 5)))
 
 
-def send_paced(sock, address, datagrams, burst=40, pause_s=0.004):
-    """Send every datagram, pausing after each burst so the kernel delivers them all; return the count."""
+BACKLOG_BYTES = 32768    # a receiver with more than this unread in its socket is let read first
+BACKLOG_WAIT_S = 1.0     # at most this long (wall) after a burst
+
+
+def udp_backlog_bytes(port, proc_net='/proc/net/udp'):
+    """Bytes queued unread at the UDP socket bound to `port` in this network namespace (rx_queue of
+    /proc/net/udp), or None where it is not to be read (no such socket, another system)."""
+    try:
+        with open(proc_net) as f:
+            next(f)
+            for line in f:
+                fields = line.split()
+                if int(fields[1].rsplit(':', 1)[1], 16) == port:
+                    return int(fields[4].split(':')[1], 16)
+    except (OSError, ValueError, IndexError, StopIteration):
+        return None
+    return None
+
+
+def send_paced(sock, address, datagrams, burst=40, pause_s=0.004, backlog=udp_backlog_bytes):
+    """Send every datagram, pausing after each burst so the kernel delivers them all: the receiver's unread
+    backlog (a loopback receiver's socket) is let fall under BACKLOG_BYTES first, for at most BACKLOG_WAIT_S, so a
+    receiver starved of CPU meets the same datagrams as an idle one, not a full socket that drops them. Return
+    the count."""
     sent = 0
     for data in datagrams:
         sock.sendto(data, address)
         sent += 1
         if sent % burst == 0:
             time.sleep(pause_s)
+            deadline = time.monotonic() + BACKLOG_WAIT_S
+            while time.monotonic() < deadline and (backlog(address[1]) or 0) > BACKLOG_BYTES:
+                time.sleep(0.001)
     return sent
 
 
