@@ -190,7 +190,26 @@ def launch_failure(path, lines=6):
     return causes + (rest[-room:] if room else [])
 
 
+class _HalfJoined(Exception):
+    """The demo ends while rospy.init_node is still registering with a master that is gone: rospy holds its
+    topic lock meanwhile, so rospy.signal_shutdown (and rospy's exit handler) would wait for it for good."""
+
+    def __init__(self, code):
+        super().__init__(code)
+        self.code = code
+
+
 def main(argv=None):
+    """The demo; the process exit code."""
+    try:
+        return _run(argv)
+    except _HalfJoined as end:  # the launch is stopped already: end the process without rospy's shutdown
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(end.code)
+
+
+def _run(argv):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     os.makedirs(os.path.dirname(os.path.abspath(args.log)), exist_ok=True)
     tty = sys.stdout.isatty()
@@ -228,13 +247,15 @@ def main(argv=None):
         join_deadline = time.monotonic() + MASTER_TIMEOUT_S
         while not joined.wait(0.2):
             if launch.poll() is not None or interrupted or time.monotonic() > join_deadline:
-                rospy.signal_shutdown('the demo ends before it joined the ROS master')
                 if launch.poll() is not None:
-                    return said_launch_ended(launch, args.log,
+                    code = said_launch_ended(launch, args.log,
                                              'roslaunch exited (code %s) before the demo joined its ROS master')
-                print('interrupted while joining the ROS master' if interrupted else
-                      'could not join the ROS master within %.0f s; roslaunch output: %s' % (MASTER_TIMEOUT_S, args.log))
-                return 1
+                else:
+                    print('interrupted while joining the ROS master' if interrupted else
+                          'could not join the ROS master within %.0f s; roslaunch output: %s'
+                          % (MASTER_TIMEOUT_S, args.log))
+                    code = 1
+                raise _HalfJoined(code)
         rec = Recorder(t0, clock)
         rospy.Subscriber('/mavros/state', State, rec.phases.on_state)
         rospy.Subscriber('/mavros/local_position/pose', PoseStamped, rec.on_pose)
