@@ -98,10 +98,11 @@ def validate_config(get):
 class OffboardLogic:
     """The tutorial's request sequence as a state machine.
 
-    Feed it `on_state()` for every mavros/state message, `on_setpoint_sent()` for every
-    setpoint published, ask `next_request(now_s)` in the main loop, and report with
-    `on_request_done(now_s)` when the service call returns. Times are seconds on any
-    monotonic clock. `on_state()` returns the log lines a transition deserves.
+    Feed it `on_state()` for every mavros/state message and `on_setpoint_sent()` for every
+    setpoint published. `next_request(now_s)` only answers what is due; `take_request(now_s)`
+    takes it (no other is due until `on_request_done(now_s)` says the service call returned).
+    Times are seconds on any monotonic clock. `on_state()` returns the log lines a transition
+    deserves.
     """
 
     def __init__(self, prestream_count=DEFAULTS.prestream_count,
@@ -110,9 +111,11 @@ class OffboardLogic:
         self.request_interval_s = request_interval_s
         self.respect_pilot = respect_pilot
         self.state = DISCONNECTED
-        self.streaming = False       # set once the FCU has been seen, never cleared
+        self.fcu_seen = False         # the FCU has been connected once: from then on, the stream flows
         self.setpoints_sent = 0
-        self.last_request_s = None   # None until the pre-stream is complete
+        self.prestream_complete = False
+        self.last_request_s = None    # when the last request came back (or the pre-stream ended)
+        self.in_flight = None         # the request taken and not yet done
         self.flying_offboard = False  # has been in OFFBOARD and armed at once
         self.pilot_took_over = False
         self.armed_since_s = None     # when a setpoint first went out with the vehicle armed
@@ -124,8 +127,8 @@ class OffboardLogic:
         old, self.state = self.state, state
         lines = []
         if state.connected and not old.connected:
-            lines.append('FCU connected' if not self.streaming else 'FCU connection back')
-            self.streaming = True
+            lines.append('FCU connected' if not self.fcu_seen else 'FCU connection back')
+            self.fcu_seen = True
         elif old.connected and not state.connected:
             lines.append('FCU connection lost')
         if state.connected:
@@ -159,10 +162,10 @@ class OffboardLogic:
 
     def should_stream(self):
         """Setpoints flow once the FCU has been connected, and from then on always."""
-        return self.streaming
+        return self.fcu_seen
 
     def on_setpoint_sent(self, now_s):
-        if not self.streaming:
+        if not self.fcu_seen:
             return
         self.setpoints_sent += 1
         if self.state.armed:
@@ -170,18 +173,17 @@ class OffboardLogic:
                 self.armed_since_s = now_s
             elif now_s - self.armed_since_s >= QUICK_DISARM_S:
                 self.quick_disarms = 0  # it stayed armed: it flew
-        if self.last_request_s is None and self.setpoints_sent >= self.prestream_count:
+        if not self.prestream_complete and self.setpoints_sent >= self.prestream_count:
+            self.prestream_complete = True
             self.last_request_s = now_s  # the tutorial's `last_req = now()` after the pre-stream
 
     def prestream_done(self):
-        return self.last_request_s is not None
+        return self.prestream_complete
 
     def next_request(self, now_s):
-        """The request to make now, or None."""
-        if self.streaming and not self.prestream_done() and self.prestream_count == 0:
-            self.last_request_s = now_s
-        if (not self.prestream_done() or not self.state.connected or self.pilot_took_over
-                or now_s - self.last_request_s < self.request_interval_s - _TIME_TOLERANCE_S):
+        """The request due now, or None. Asks only: take_request() takes it."""
+        if (not self.prestream_complete or self.in_flight is not None or not self.state.connected
+                or self.pilot_took_over or now_s - self.last_request_s < self.request_interval_s - _TIME_TOLERANCE_S):
             return None
         if self.state.mode != OFFBOARD:
             return Request.SET_OFFBOARD
@@ -189,6 +191,12 @@ class OffboardLogic:
             return Request.ARM
         return None
 
+    def take_request(self, now_s):
+        """The request due now, taken: none other is due until on_request_done(). None if none is due."""
+        self.in_flight = self.next_request(now_s)
+        return self.in_flight
+
     def on_request_done(self, now_s):
         """A request came back (or failed): the next one waits a full interval from now."""
+        self.in_flight = None
         self.last_request_s = now_s

@@ -193,3 +193,17 @@ def test_a_vehicle_that_flew_is_armed_again_after_landing():
             logic.on_setpoint_sent(t)
         logic.on_state(OFFBOARD_DISARMED)
     assert not logic.gave_up_arming
+
+
+def test_a_request_taken_is_not_due_again_until_it_is_done():
+    """The stream thread takes a request and hands it to the main thread: while the service call is out
+    (mavros may take 5 s to answer cmd/arming), no second one is due, however long it takes."""
+    logic = OffboardLogic()
+    t = prestreamed(logic)
+    assert logic.next_request(t + 5) is Request.SET_OFFBOARD, 'asking takes nothing'
+    assert logic.next_request(t + 5) is Request.SET_OFFBOARD
+    assert logic.take_request(t + 5) is Request.SET_OFFBOARD
+    assert logic.next_request(t + 30) is None and logic.take_request(t + 30) is None, 'one request at a time'
+    logic.on_request_done(t + 31)
+    assert logic.next_request(t + 35.9) is None
+    assert logic.take_request(t + 36) is Request.SET_OFFBOARD, 'a full interval after the answer'

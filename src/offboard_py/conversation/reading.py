@@ -199,7 +199,3 @@ def read_pcap(f, name='<pcap>', fcu_port=FCU_PORT):
             out.append(Message(round(stamp - start, 6), direction, sys_id, comp_id, sender_seq, msg_id, kind, fields))
     return out
 
-
-def unknown_ids(messages):
-    """{id: count} of the messages the dialect did not know."""
-    return dict(collections.Counter(m.id for m in messages if m.type.startswith('UNKNOWN_')))

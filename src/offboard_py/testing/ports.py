@@ -29,7 +29,7 @@ INSTANCES = (
     (0, 19, "offboard_py's rostest scenarios, each its own N from CMakeLists.txt (instance:=N); two_vehicles 0 "
             "and 1; 15 only for conversation, whose bridge binds its extra port: 15's bridge port 14555 is mavros's "
             "default ground-station port"),
-    (19, 27, "offboard_py's rostest scenarios past 19: fleet_shared_sims 19-21, the failsafes 22-27 (and 16)"),
+    (19, 28, "offboard_py's rostest scenarios past 19: fleet_shared_sims 19-21, the failsafes 22-27 (and 16), figure 28"),
     (20, 37, "offboard_py's pytest tiers (test/sim, test/meta), free_instances() per test"),
     (30, 32, "the example packages' tests (examples/*/CMakeLists.txt): hover 30, failsafe 31, square 32"),
     (38, 39, "a .test file run by hand without instance:=N (its default; respect_pilot takes both); the soak 38"),
