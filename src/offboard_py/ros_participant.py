@@ -9,6 +9,7 @@ import time
 import rospy
 
 from offboard_py.clock_board import Board, BoardError, board_path
+from offboard_py.stream_watch import waits_for_cpu
 
 UPDATE_WALL_S = 0.01
 
@@ -58,3 +59,48 @@ def join(name, limit=None):
     except (BoardError, ValueError) as err:
         rospy.logwarn('%s: not a participant of the governed clock: %s', name, err)
         return None
+
+
+class PublisherProcesses:
+    """The local process of each node that publishes to this one, by caller id, for
+    stream_watch.StreamWatch(runnable=...): looked up once (the master's URI of the node, then the node's
+    getPid), from a thread of its own, since a starved node answers late or not at all. A node on another host,
+    or one that does not answer, has none: it is never taken for a process that waits for the CPU."""
+
+    LOCAL_HOSTS = ('localhost', '127.0.0.1', '::1')
+
+    def __init__(self, caller_id):
+        self.caller_id = caller_id
+        self.pids = {}
+        self.lock = threading.Lock()
+
+    def seen(self, publisher):
+        """A publisher's message arrived: look its process up if not yet done (cheap once known)."""
+        if publisher in self.pids:
+            return
+        with self.lock:
+            if publisher in self.pids:
+                return
+            self.pids[publisher] = None
+        threading.Thread(target=self._look_up, args=(publisher,), name='publisher pid', daemon=True).start()
+
+    def _look_up(self, publisher):
+        import socket
+        import xmlrpc.client
+        from urllib.parse import urlparse
+
+        import rosgraph
+        try:
+            uri = rosgraph.Master(self.caller_id).lookupNode(publisher)
+            host = urlparse(uri).hostname
+            if host not in self.LOCAL_HOSTS + (socket.gethostname(),) and not host.startswith('127.'):
+                return
+            code, _, pid = xmlrpc.client.ServerProxy(uri).getPid(self.caller_id)
+            if code == 1 and isinstance(pid, int) and pid > 0:
+                self.pids[publisher] = pid
+        except Exception:  # gone, refused, not a node: none known, so it never holds the clock long
+            pass
+
+    def waits_for_cpu(self, publisher):
+        pid = self.pids.get(publisher)
+        return pid is not None and waits_for_cpu(pid)

@@ -1,14 +1,19 @@
 """The node under test as the bridge sees it, for the governed clock (offboard_py.clock_board): a node that
-streams setpoints steadily and then falls silent may be starved of CPU rather than stopped, so for a short
-while (HOLD_WALL_S of wall time) the clock may not run further than two of its periods past its last
-setpoint; a node that is still silent then has stopped (killed, or done), and the clock goes on without it.
-The offboard-loss failsafe is timed in simulated seconds, which stand still meanwhile: the wait moves no
-deadline. Pure: the arrivals' simulated and wall times are given."""
+streams setpoints steadily and then falls silent may be starved of CPU rather than stopped. For HOLD_WALL_S of
+wall time the clock may not run further than two of its periods past its last setpoint; past that, for as long
+as the node's process waits for the CPU (a thread of it runnable and not running: `runnable(publisher)`, read
+from /proc where the node runs on this host) up to STARVED_HOLD_WALL_S. A node silent and not waiting to run
+has stopped (killed, or done, or pausing on purpose) and the clock goes on without it. The offboard-loss
+failsafe is timed in simulated seconds, which stand still meanwhile: the wait moves no deadline. Pure: the
+arrivals' simulated and wall times, and whether a publisher waits to run, are given."""
 
-STEADY_COUNT = 20      # setpoints before a stream counts as steady
-MAX_PERIOD_S = 0.5     # simulated seconds: slower than 2 Hz is not a stream PX4's offboard mode keeps
-HOLD_WALL_S = 2.0      # wall seconds a silent steady stream may hold the clock (a thread starved while its process runs)
-ALPHA = 0.1            # smoothing of the period
+import os
+
+STEADY_COUNT = 20          # setpoints before a stream counts as steady
+MAX_PERIOD_S = 0.5         # simulated seconds: slower than 2 Hz is not a stream PX4's offboard mode keeps
+HOLD_WALL_S = 0.5          # wall seconds any silent steady stream holds the clock
+STARVED_HOLD_WALL_S = 10.0  # and at most this long while its node's process waits for the CPU (clock_board's stale time)
+ALPHA = 0.1                # smoothing of the period
 
 
 class Stream:
@@ -23,10 +28,12 @@ class Stream:
 
 
 class StreamWatch:
-    """Setpoint streams by publisher (a ROS caller id)."""
+    """Setpoint streams by publisher (a ROS caller id). runnable(publisher): True while that node's process
+    waits for the CPU, False when it does not (or cannot be known)."""
 
-    def __init__(self, hold_wall_s=HOLD_WALL_S):
-        self.hold_wall_s = hold_wall_s
+    def __init__(self, hold_wall_s=HOLD_WALL_S, starved_hold_wall_s=STARVED_HOLD_WALL_S, runnable=None):
+        self.hold_wall_s, self.starved_hold_wall_s = hold_wall_s, starved_hold_wall_s
+        self.runnable = runnable or (lambda publisher: False)
         self.streams = {}
 
     def arrived(self, publisher, sim_s, wall_s):
@@ -41,23 +48,46 @@ class StreamWatch:
         stream.last_s, stream.last_wall_s = max(stream.last_s, sim_s), wall_s
         stream.let_go = False
 
+    def _holding(self, publisher, stream, wall_s):
+        if not stream.steady() or stream.let_go:
+            return False
+        silent = wall_s - stream.last_wall_s
+        return silent < self.hold_wall_s or (silent < self.starved_hold_wall_s and self.runnable(publisher))
+
     def limit(self, wall_s):
         """The simulated time the clock may run to for the streams' sake, or None (no stream holds it)."""
-        limits = [s.last_s + 2 * s.period_s for s in list(self.streams.values())
-                  if s.steady() and wall_s - s.last_wall_s < self.hold_wall_s]
+        limits = [s.last_s + 2 * s.period_s for p, s in list(self.streams.items()) if self._holding(p, s, wall_s)]
         return min(limits) if limits else None
 
     def let_go(self, wall_s):
-        """[(publisher, simulated s of its last setpoint)] of the steady streams that have now been silent past
-        the hold, each once until it streams again: the clock goes on without them (an offboard-loss failsafe may
-        follow), which the bridge says."""
+        """[(publisher, simulated s of its last setpoint, wall s silent)] of the steady streams that no longer
+        hold the clock, each once until it streams again: the clock goes on without them (an offboard-loss
+        failsafe may follow), which the bridge says."""
         gone = []
         for publisher, s in list(self.streams.items()):
-            if not s.let_go and s.steady() and wall_s - s.last_wall_s >= self.hold_wall_s:
+            if s.steady() and not s.let_go and not self._holding(publisher, s, wall_s):
                 s.let_go = True
-                gone.append((publisher, s.last_s))
+                gone.append((publisher, s.last_s, wall_s - s.last_wall_s))
         return gone
 
     def forget(self, publisher):
         """Its connection closed (the node ended): it holds nothing."""
         self.streams.pop(publisher, None)
+
+
+def waits_for_cpu(pid, proc='/proc'):
+    """True while a thread of process `pid` is runnable (state R in /proc/PID/task/*/stat): it wants the CPU
+    it is not given, or is on it. False for a process whose threads all sleep, or that is gone."""
+    try:
+        tasks = os.listdir(os.path.join(proc, str(pid), 'task'))
+    except OSError:
+        return False
+    for task in tasks:
+        try:
+            with open(os.path.join(proc, str(pid), 'task', task, 'stat')) as f:
+                stat = f.read()
+        except OSError:
+            continue
+        if stat[stat.rfind(')') + 2:stat.rfind(')') + 3] == 'R':
+            return True
+    return False

@@ -5,6 +5,7 @@ stale and the ended left out, the holds counted with who held them."""
 import os
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -181,10 +182,44 @@ def test_a_setpoint_stream_given_up_is_said_once_until_it_streams_again():
         sim, wall = sim + 0.05, wall + 0.01
         watch.arrived('/my_node', sim, wall)
     assert watch.let_go(wall + HOLD_WALL_S - 0.01) == [], 'not given up while it may hold the clock'
-    assert watch.let_go(wall + HOLD_WALL_S) == [('/my_node', pytest.approx(sim))], 'given up, with its last time'
+    assert watch.let_go(wall + HOLD_WALL_S) == [('/my_node', pytest.approx(sim), pytest.approx(HOLD_WALL_S))]
     assert watch.let_go(wall + 2 * HOLD_WALL_S) == [], 'said once'
+    assert watch.limit(wall + HOLD_WALL_S + 0.01) is None, 'and held no more'
     watch.arrived('/my_node', sim + 1.0, wall + 1.0)
-    assert watch.let_go(wall + 1.0 + HOLD_WALL_S) == [('/my_node', pytest.approx(sim + 1.0))], 'again once back'
+    assert [g[0] for g in watch.let_go(wall + 1.0 + HOLD_WALL_S)] == ['/my_node'], 'again once back'
+
+
+def test_a_silent_stream_holds_on_while_its_node_waits_for_the_cpu_but_not_for_ever():
+    from offboard_py.stream_watch import HOLD_WALL_S, STARVED_HOLD_WALL_S, STEADY_COUNT, StreamWatch
+    starved = {'/starved': True, '/paused': False}
+    watch = StreamWatch(runnable=lambda publisher: starved.get(publisher, False))
+    sim, wall = 10.0, 100.0
+    for _ in range(STEADY_COUNT):
+        sim, wall = sim + 0.05, wall + 0.01
+        for node in ('/starved', '/paused'):
+            watch.arrived(node, sim, wall)
+    later = wall + HOLD_WALL_S + 1.0
+    assert watch.limit(later) == pytest.approx(sim + 0.1), 'the starved node holds the clock'
+    assert [g[0] for g in watch.let_go(later)] == ['/paused'], 'the node that sleeps is let go'
+    starved['/starved'] = False
+    assert [g[0] for g in watch.let_go(later)] == ['/starved'], 'let go once it no longer waits to run'
+    starved['/starved'] = True
+    watch.arrived('/starved', sim + 0.05, wall + 0.01)
+    assert watch.limit(wall + 0.01 + STARVED_HOLD_WALL_S - 0.1) is not None
+    assert watch.limit(wall + 0.01 + STARVED_HOLD_WALL_S) is None, 'never longer than the stale time'
+
+
+def test_a_process_waits_for_the_cpu_while_a_thread_of_it_is_runnable():
+    from offboard_py.stream_watch import waits_for_cpu
+    assert waits_for_cpu(os.getpid()), 'this process, running this test'
+    sleeper = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(30)'])
+    try:
+        time.sleep(0.5)
+        assert not waits_for_cpu(sleeper.pid), 'a process whose threads all sleep'
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    assert not waits_for_cpu(sleeper.pid), 'a process that is gone'
 
 
 def test_a_participant_whose_progress_stands_still_is_left_out_after_the_stale_time(tmp_path, wall):

@@ -46,7 +46,10 @@ class RospyEndpoints:
 
     def __init__(self):
         self.flusher = tcpros_out.Flusher()
-        self.streams = StreamWatch()  # the setpoint streams by publisher, for the governed clock
+        # the setpoint streams by publisher, for the governed clock; a silent one holds it longer while its
+        # node's process waits for the CPU
+        self.publishers = ros_participant.PublisherProcesses(rospy.get_name())
+        self.streams = StreamWatch(runnable=self.publishers.waits_for_cpu)
 
     def publisher(self, name, data_class, queue_size, latch, on_subscribers):
         """on_subscribers() is called when the topic gains or loses a subscriber. A subscriber's
@@ -60,7 +63,9 @@ class RospyEndpoints:
 
             def callback(msg):
                 header = getattr(msg, '_connection_header', None) or {}
-                self.streams.arrived(header.get('callerid', '?'), rospy.get_time(), time.monotonic())
+                publisher = header.get('callerid', '?')
+                self.streams.arrived(publisher, rospy.get_time(), time.monotonic())
+                self.publishers.seen(publisher)
                 handle(msg)
         # setpoints: each one matters and waits for no other, so no Nagle batching
         return rospy.Subscriber(name, data_class, callback, queue_size=10, tcp_nodelay=True)
@@ -146,10 +151,10 @@ def _clock_limit(endpoints, bridge):
     """How far the governed clock may run for this bridge's sake: its receive loop's next task, and the setpoint
     streams that may be starved rather than stopped (offboard_py.stream_watch); a stream given up is said."""
     wall_s = time.monotonic()
-    for publisher, last_s in endpoints.streams.let_go(wall_s):
+    for publisher, last_s, silent_s in endpoints.streams.let_go(wall_s):
         rospy.loginfo('the setpoints from %s stopped at %.2f s and have not come for %.1f wall seconds: the clock '
                       'goes on without them (PX4 takes the offboard signal as lost after COM_OF_LOSS_T)',
-                      publisher, last_s, endpoints.streams.hold_wall_s)
+                      publisher, last_s, silent_s)
     return _earliest(endpoints.streams.limit(wall_s), bridge.next_task_s)
 
 
