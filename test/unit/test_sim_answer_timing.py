@@ -33,8 +33,7 @@ def command_long(ap, command, *params):
     params = (list(params) + [0.0] * 7)[:7]
     msg = ap.link.mav.command_long_encode(ap.system_id, 1, command, 0, *params)
     msg._header = mavlink.MAVLink_header(msg.get_msgId(), srcSystem=255, srcComponent=190)
-    ap.reply_link = ap.link
-    ap.receiver._on_command(msg)
+    ap.receiver._on_command(msg, ap.link)
 
 
 def run_until(ap, clock, seconds, dt=0.0005):

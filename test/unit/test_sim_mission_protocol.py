@@ -28,7 +28,7 @@ class Rig:
     def __init__(self):
         self.link = Link()
         self.texts, self.changes = [], []
-        self.transfer = mission_manager.MissionManager(BUILD, 1, lambda: self.link, self.texts.append, self.changes.append)
+        self.transfer = mission_manager.MissionManager(BUILD, 1, self.texts.append, self.changes.append)
 
     def sent(self, kind=None):
         return [m for m in self.link.sent if kind is None or m.get_type() == kind]
@@ -44,7 +44,7 @@ class Rig:
                    'MISSION_REQUEST_INT': self.transfer.on_request, 'MISSION_REQUEST': self.transfer.on_request,
                    'MISSION_ACK': self.transfer.on_ack, 'MISSION_CLEAR_ALL': self.transfer.on_clear_all}
         assert self.transfer.for_me(decoded), 'addressed to system 1'
-        handler[decoded.get_type()](decoded, now_s)
+        handler[decoded.get_type()](decoded, now_s, self.link)
 
 
 def count(n, mtype=MISSION):

@@ -458,7 +458,7 @@ def test_a_parameter_list_goes_out_between_the_streams_of_each_cycle_of_a_wake_u
     sim = stopped_clock_sim()
     try:
         sim.step(0.01, 6.99, {})  # past the PARAM_VALUEs PX4 sends unasked at boot (BOOT_PARAM_ANNOUNCEMENTS)
-        sim.parameters.on_request_list(sim.mav.param_request_list_encode(sim.system_id, 1))
+        sim.parameters.on_request_list(sim.mav.param_request_list_encode(sim.system_id, 1), sim.link)
         out = {}
         for cycle in range(5):
             sim.step(0.01, 7.00 + 0.01 * cycle, out)

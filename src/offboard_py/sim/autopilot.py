@@ -85,7 +85,6 @@ class SimulatedPx4:
                 self.link.close()
                 raise
             self.links.append(self.gcs_link)
-        self.reply_link = self.link  # the link of the request being handled: answers go back on it
         self.reached_repeats = {link: mission_manager.ReachedRepeats() for link in self.links}
         self.streams = {self.link: sim_streams.Streams(self.t(now), sim_streams.ONBOARD_RATES_HZ)}
         if self.gcs_link:
@@ -99,7 +98,7 @@ class SimulatedPx4:
         self.command_sender = CommandSender(clock, self.mav, self.system_id, self.links)
         self.texts = StatustextQueue(self.links, self.telemetry.mav)
         self.origin_sent = False  # GPS_GLOBAL_ORIGIN's one message on every link (ORIGIN_FIRST_SENT_S)
-        self.on_setpoint_accepted = []  # hooks: f(msg) for every accepted setpoint (the benchmark's log)
+        self.on_setpoint_accepted = []  # hooks: f(msg, link) for every accepted setpoint (the benchmark's log)
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
         # Signing as PX4 does it with a key on its SD card: outgoing signed, incoming must be.
@@ -114,8 +113,8 @@ class SimulatedPx4:
                 link.enable_signing(key, timestamp, required=True)
         self.allowed_systems = frozenset(allowed_systems)  # empty: commands from anyone
         self.mission_manager = mission_manager.MissionManager(
-            self.mav, self.system_id, lambda: self.reply_link,
-            lambda text: self.text(mavlink.MAV_SEVERITY_CRITICAL, text), self._on_mission_changed)
+            self.mav, self.system_id, lambda text: self.text(mavlink.MAV_SEVERITY_CRITICAL, text),
+            self._on_mission_changed)
         self.parameters = ParametersManager(self)
         self.log_root = log_dir or None  # PX4's log folder (sim.logger, sim.mavlink.log_handler); None: no logs
         self.logger = None
@@ -134,10 +133,6 @@ class SimulatedPx4:
         return self.flight.status(self.t())
 
     # -- what the parts share: the links, the ids, the texts ----------------------------------
-
-    def reply(self, msg):
-        """Send an answer on the link its request came from."""
-        return self.reply_link.send(msg)
 
     def broadcast(self, msg):
         for link in self.links:

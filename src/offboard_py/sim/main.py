@@ -278,7 +278,7 @@ def main(argv=None):
                 logging.warning('this kernel does not stamp datagrams (SO_TIMESTAMPNS): the setpoint log takes '
                                 'arrivals as the simulator read them')
             sim.on_setpoint_accepted.append(
-                lambda msg, sim=sim, setpoint_log=setpoint_log: setpoint_log.record(msg, sim.reply_link.arrival_ns))
+                lambda msg, link, setpoint_log=setpoint_log: setpoint_log.record(msg, link.arrival_ns))
             setpoint_logs.append(setpoint_log)
 
     def stop(_signum, _frame):

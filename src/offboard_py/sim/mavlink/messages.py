@@ -144,8 +144,13 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
         return int((now_s - self.boot_s) * 1e6)
 
     def build(self, name, status, now_s):
-        """The message `name` for now, or None when there is nothing to say (no home yet)."""
-        return getattr(self, '_' + name.lower())(status, now_s)
+        """The message `name` for now, or None when there is nothing to say (no home yet); `name` is one of
+        BUILDERS (LINK_NODE_STATUS is each link's: link_node_status), anything else a ValueError."""
+        try:
+            builder = self.BUILDERS[name]
+        except KeyError:
+            raise ValueError('TelemetryBuilder has no builder for the message %r' % (name,)) from None
+        return builder(self, status, now_s)
 
     # -- what several messages share, once per Status ---------------------------------------
 
@@ -325,3 +330,44 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
 
     def _mission_current(self, st, now_s):
         return self.mav.mission_current_encode(st.mission_seq, st.mission_count)
+
+    # -- the builders by message name (build): builder(self, status, now_s) -------------------
+
+    BUILDERS = {
+        'HEARTBEAT': _heartbeat,
+        'CURRENT_MODE': _current_mode,
+        'SYS_STATUS': _sys_status,
+        'BATTERY_STATUS': _battery_status,
+        'ATTITUDE': _attitude,
+        'ATTITUDE_QUATERNION': _attitude_quaternion,
+        'LOCAL_POSITION_NED': _local_position_ned,
+        'ODOMETRY': _odometry,
+        'GLOBAL_POSITION_INT': _global_position_int,
+        'ALTITUDE': _altitude,
+        'VFR_HUD': _vfr_hud,
+        'EXTENDED_SYS_STATE': _extended_sys_state,
+        'HOME_POSITION': _home_position,
+        'POSITION_TARGET_LOCAL_NED': _position_target_local_ned,
+        'POSITION_TARGET_GLOBAL_INT': _position_target_global_int,
+        'ATTITUDE_TARGET': _attitude_target,
+        'SERVO_OUTPUT_RAW': _servo_output_raw,
+        'TIMESYNC': _timesync,
+        'TIME_ESTIMATE_TO_TARGET': _time_estimate_to_target,
+        'PING': _ping,
+        'MISSION_CURRENT': _mission_current,
+        # sim.mavlink.sensor_messages
+        'GPS_RAW_INT': SensorMessages._gps_raw_int,
+        'HIGHRES_IMU': SensorMessages._highres_imu,
+        'SCALED_PRESSURE': SensorMessages._scaled_pressure,
+        'DISTANCE_SENSOR': SensorMessages._distance_sensor,
+        'ESTIMATOR_STATUS': SensorMessages._estimator_status,
+        'VIBRATION': SensorMessages._vibration,
+        'RC_CHANNELS': SensorMessages._rc_channels,
+        # sim.mavlink.system_messages
+        'SYSTEM_TIME': SystemMessages._system_time,
+        'OPEN_DRONE_ID_LOCATION': SystemMessages._open_drone_id_location,
+        'OPEN_DRONE_ID_SYSTEM': SystemMessages._open_drone_id_system,
+        'GPS_GLOBAL_ORIGIN': SystemMessages._gps_global_origin,
+        'AUTOPILOT_VERSION': SystemMessages._autopilot_version,
+        'PROTOCOL_VERSION': SystemMessages._protocol_version,
+    }

@@ -156,15 +156,15 @@ class ReachedRepeats:
 class MissionManager:
     """Vehicle side of the mission protocol, PX4's state machine (module docstring).
 
-    `mav` builds messages; `link()` is the link the message being handled came from, where answers
-    go (a transfer's requests go to the link it began on); `say(text)` is a critical text for the
-    ground station; `on_change(mission_type)` is called after every completed upload or clear.
+    `mav` builds messages; `say(text)` is a critical text for the ground station; `on_change(mission_type)`
+    is called after every completed upload or clear. Each handler on_*(msg, now_s, link) is given the link
+    the message came from, where its answers go (a transfer's requests go to the link it began on).
     """
 
     IDLE, GETLIST, SENDLIST = 'idle', 'getlist', 'sendlist'
 
-    def __init__(self, mav, system_id, link, say=lambda text: None, on_change=lambda mission_type: None):
-        self.mav, self.system_id, self.link, self.say, self.on_change = mav, system_id, link, say, on_change
+    def __init__(self, mav, system_id, say=lambda text: None, on_change=lambda mission_type: None):
+        self.mav, self.system_id, self.say, self.on_change = mav, system_id, say, on_change
         self.items = {t: [] for t in MISSION_TYPES}
         self.current = 0
         self.state = self.IDLE
@@ -187,17 +187,17 @@ class MissionManager:
 
     # -- sending ----------------------------------------------------------------------------
 
-    def _send(self, msg, link=None):
-        (link or self.link()).send(msg)
+    def _send(self, msg, link):
+        link.send(msg)
 
-    def _ack(self, partner, result, link=None):
-        """MISSION_ACK with the type of the transfer under way (or last), as PX4's send_mission_ack."""
+    def _ack(self, partner, result, link):
+        """MISSION_ACK on `link` with the type of the transfer under way (or last), as PX4's send_mission_ack."""
         self._send(self.mav.mission_ack_encode(partner[0], partner[1], result, self.mission_type), link)
 
-    def _refuse(self, partner, text):
-        """PX4's text for the ground station and MISSION_ACK ERROR to `partner`."""
+    def _refuse(self, partner, text, link):
+        """PX4's text for the ground station and MISSION_ACK ERROR to `partner` on `link`."""
         self.say(text)
-        self._ack(partner, mavlink.MAV_MISSION_ERROR)
+        self._ack(partner, mavlink.MAV_MISSION_ERROR, link)
 
     def _request(self, now_s):
         self.last_sent_s = now_s
@@ -207,10 +207,10 @@ class MissionManager:
     def _idle(self):
         self.state = self.IDLE
 
-    def _begin(self, msg, state, mission_type, now_s):
+    def _begin(self, msg, state, mission_type, now_s, link):
         self.state, self.mission_type = state, mission_type
         self.partner = (msg.get_srcSystem(), msg.get_srcComponent())
-        self.partner_link = self.link()
+        self.partner_link = link
         self.transfer_seq, self.last_recv_s, self.last_sent_s = 0, now_s, None
 
     def _from_partner(self, msg):
@@ -218,49 +218,49 @@ class MissionManager:
 
     # -- upload -----------------------------------------------------------------------------
 
-    def on_count(self, msg, now_s):
+    def on_count(self, msg, now_s, link):
         partner, mtype = (msg.get_srcSystem(), msg.get_srcComponent()), msg.mission_type
         if self.state == self.GETLIST:
             self.last_recv_s = now_s
             if partner != self.partner:
-                self._ack(partner, mavlink.MAV_MISSION_ERROR)  # another client while receiving
+                self._ack(partner, mavlink.MAV_MISSION_ERROR, link)  # another client while receiving
             elif self.transfer_seq == 0:
                 self._request(now_s)  # our first request was lost: ask again
             else:
-                self._refuse(self.partner, 'WPM: REJ. CMD: Busy')
+                self._refuse(self.partner, 'WPM: REJ. CMD: Busy', link)
             return
         if self.state != self.IDLE:
-            self._refuse(partner, 'WPM: IGN MISSION_COUNT: Busy')
+            self._refuse(partner, 'WPM: IGN MISSION_COUNT: Busy', link)
             return
         self.mission_type, self.partner, self.last_recv_s = mtype, partner, now_s
         if msg.count > MAX_COUNT.get(mtype, 0):
-            self._ack(partner, mavlink.MAV_MISSION_NO_SPACE)
+            self._ack(partner, mavlink.MAV_MISSION_NO_SPACE, link)
             return
         if msg.count == 0:
             if mtype in MISSION_TYPES:
                 self._replace(mtype, [])
-            self._ack(partner, mavlink.MAV_MISSION_ACCEPTED)
+            self._ack(partner, mavlink.MAV_MISSION_ACCEPTED, link)
             return
-        self._begin(msg, self.GETLIST, mtype, now_s)
+        self._begin(msg, self.GETLIST, mtype, now_s, link)
         self.transfer_count, self.received = msg.count, []
         self._request(now_s)
 
-    def on_item(self, msg, now_s):
+    def on_item(self, msg, now_s, link):
         if not self._from_partner(msg):
             self.say('REJ. MIS ITEM: partner id mismatch')
             return
         self.int_mode = msg.get_type() == 'MISSION_ITEM_INT'  # answer in the client's dialect
         if msg.mission_type != self.mission_type:
-            self._ack(self.partner, mavlink.MAV_MISSION_ERROR)
+            self._ack(self.partner, mavlink.MAV_MISSION_ERROR, link)
             return
         if self.state == self.IDLE:
             if self.transfer_seq == msg.seq + 1:
-                self._ack(self.partner, mavlink.MAV_MISSION_ACCEPTED)  # the last item again: our ACK was lost
+                self._ack(self.partner, mavlink.MAV_MISSION_ACCEPTED, link)  # the last item again: our ACK was lost
             else:
-                self._refuse(self.partner, 'IGN MISSION_ITEM: No transfer')
+                self._refuse(self.partner, 'IGN MISSION_ITEM: No transfer', link)
             return
         if self.state != self.GETLIST:
-            self._refuse(self.partner, 'IGN MISSION_ITEM: Busy')
+            self._refuse(self.partner, 'IGN MISSION_ITEM: Busy', link)
             return
         self.last_recv_s = now_s
         if msg.seq != self.transfer_seq:
@@ -271,7 +271,7 @@ class MissionManager:
             result = mavlink.MAV_MISSION_ERROR
         if result != mavlink.MAV_MISSION_ACCEPTED:
             self.say('IGN MISSION_ITEM: Invalid item')
-            self._ack(self.partner, result)
+            self._ack(self.partner, result, link)
             self._idle()
             return
         self.received.append(item_from_message(msg))
@@ -300,19 +300,19 @@ class MissionManager:
 
     # -- download ---------------------------------------------------------------------------
 
-    def on_request_list(self, msg, now_s):
+    def on_request_list(self, msg, now_s, link):
         partner, mtype = (msg.get_srcSystem(), msg.get_srcComponent()), msg.mission_type
         if self.state == self.SENDLIST and self.transfer_seq == self.transfer_count:
             self._idle()  # all sent and the ACK never came: a new list may start
         if self.state == self.IDLE or (self.state == self.SENDLIST and mtype == self.mission_type
                                        and partner == self.partner):
-            self._begin(msg, self.SENDLIST, mtype, now_s)
+            self._begin(msg, self.SENDLIST, mtype, now_s, link)
             self.transfer_count = len(self.items.get(mtype, ()))
-            self._send(self.mav.mission_count_encode(partner[0], partner[1], self.transfer_count, mtype))
+            self._send(self.mav.mission_count_encode(partner[0], partner[1], self.transfer_count, mtype), link)
         else:
             self.say('Mission download request ignored, already active')
 
-    def on_request(self, msg, now_s):
+    def on_request(self, msg, now_s, link):
         """MISSION_REQUEST_INT (answered with MISSION_ITEM_INT) or legacy MISSION_REQUEST, in a download."""
         self.int_mode = msg.get_type() == 'MISSION_REQUEST_INT'
         if not self._from_partner(msg):
@@ -334,9 +334,9 @@ class MissionManager:
             expected = msg.seq == self.transfer_seq - 1  # the last one again
         if not expected or msg.seq >= len(items):  # or the list changed under the download
             self._idle()
-            self._refuse(self.partner, 'WPM: REJ. CMD: Req. WP was unexpected')
+            self._refuse(self.partner, 'WPM: REJ. CMD: Req. WP was unexpected', link)
             return
-        self._send(self._item_message(msg, items[msg.seq]))
+        self._send(self._item_message(msg, items[msg.seq]), link)
 
     def _item_message(self, msg, it):
         partner = (msg.get_srcSystem(), msg.get_srcComponent())
@@ -351,8 +351,9 @@ class MissionManager:
                                             it.command, current, it.autocontinue, *params, it.x, it.y, it.z,
                                             msg.mission_type)
 
-    def on_ack(self, msg, now_s):
-        """The partner's MISSION_ACK: a download is over; an upload cancelled by the client ends."""
+    def on_ack(self, msg, now_s, link):
+        """The partner's MISSION_ACK: a download is over; an upload cancelled by the client ends (an upload's
+        request again goes to the link the upload began on, not `link`)."""
         if not self._from_partner(msg):
             self.say('REJ. WP CMD: partner id mismatch')
             return
@@ -368,7 +369,7 @@ class MissionManager:
 
     # -- clear ------------------------------------------------------------------------------
 
-    def on_clear_all(self, msg, now_s):
+    def on_clear_all(self, msg, now_s, link):
         partner, mtype = (msg.get_srcSystem(), msg.get_srcComponent()), msg.mission_type
         if self.state != self.IDLE:
             self.say('WPM: IGN CLEAR CMD: Busy')
@@ -379,7 +380,7 @@ class MissionManager:
                 self._replace(t, [])
         elif mtype in MISSION_TYPES:
             self._replace(mtype, [])
-        self._ack(partner, mavlink.MAV_MISSION_ACCEPTED)
+        self._ack(partner, mavlink.MAV_MISSION_ACCEPTED, link)
 
     # -- time -------------------------------------------------------------------------------
 

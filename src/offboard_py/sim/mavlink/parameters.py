@@ -55,15 +55,15 @@ class ParametersManager:
             struct.unpack('<f', struct.pack('<I', sim_params.HASH_CHECK_VALUE))[0],  # bytewise, as PX4
             mavlink.MAV_PARAM_TYPE_UINT32, len(self.params), sim_params.HASH_CHECK_INDEX)
 
-    def on_request_list(self, msg):
-        """_HASH_CHECK, then the whole table on the requesting link, as PX4, paced by the loop
+    def on_request_list(self, msg, link):
+        """_HASH_CHECK, then the whole table on the requesting `link`, as PX4, paced by the loop
         (PARAM_LIST_BATCH a step): all at once they overflow a client's socket buffer (a pymavlink
         client on loopback got 785 of 887). 889 take about 0.81 s, as PX4 SITL's 0.80 s. A new
         request while a list is under way on that link starts the table again from index 0 without
         a second _HASH_CHECK, as PX4's MavlinkParametersManager does."""
         if self.px4.for_me(msg):
-            restart = self.px4.reply_link in self.param_lists
-            self.param_lists[self.px4.reply_link] = collections.deque(
+            restart = link in self.param_lists
+            self.param_lists[link] = collections.deque(
                 ([] if restart else [sim_params.HASH_CHECK_NAME]) + self.params.names)
 
     def send_lists(self, out=None):
@@ -78,23 +78,23 @@ class ParametersManager:
             if not pending:
                 del self.param_lists[link]
 
-    def on_request_read(self, msg):
-        """By name (param_index -1), or by index (the same name for the same index); an index
-        past the table (888) gets no answer, as on PX4."""
+    def on_request_read(self, msg, link):
+        """By name (param_index -1), or by index (the same name for the same index), answered on `link`; an
+        index past the table (888) gets no answer, as on PX4."""
         if not self.px4.for_me(msg):
             return
         if msg.param_index < 0 and msg.param_id == sim_params.HASH_CHECK_NAME:
-            self.px4.reply(self.hash_check())
+            link.send(self.hash_check())
             return
         name = msg.param_id if msg.param_index < 0 else (
             self.params.names[msg.param_index] if msg.param_index < len(self.params) else None)
         if name in self.params:
-            self.px4.reply(self.param_value(name))
+            link.send(self.param_value(name))
 
-    def on_set(self, msg):
+    def on_set(self, msg, link):
         """PX4's MAVLink parameter manager: only for its own system id (not 0) and component 1 or 0;
         _HASH_CHECK, an unknown name, a type other than INT32 and REAL32, or not the parameter's own,
-        get PARAM_ERROR on the request's link and change nothing; otherwise the value is set and
+        get PARAM_ERROR on the request's `link` and change nothing; otherwise the value is set and
         PARAM_VALUE tells every link the value in force."""
         if msg.target_system != self.system_id or msg.target_component not in (0, 1):
             self.counters['ignored_other_system'] += 1
@@ -112,8 +112,8 @@ class ParametersManager:
         if error is not None:
             log.warning('PARAM_SET %s (type %d) from system %d refused: PARAM_ERROR %d', name, msg.param_type,
                         msg.get_srcSystem(), error)
-            self.px4.reply(self.mav.param_error_encode(msg.get_srcSystem(), msg.get_srcComponent(),
-                                                       name.encode('ascii', 'replace'), -1, error))
+            link.send(self.mav.param_error_encode(msg.get_srcSystem(), msg.get_srcComponent(),
+                                                  name.encode('ascii', 'replace'), -1, error))
             return
         d = self.params.definition(name)
         try:

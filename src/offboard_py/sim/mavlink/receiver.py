@@ -5,7 +5,8 @@ with PX4's receiver checks first (the target, the sentinels of a command in the 
 a COMMAND_INT, commands from the autopilot's own ids). Every COMMAND_LONG/COMMAND_INT gets a COMMAND_ACK;
 what is addressed to another system is ignored. What changes the vehicle is taken from the allowed systems
 only (--allowed-systems); reading is open to anyone. The receiver answers message intervals and requests
-itself, as PX4's does; the answer goes back on the link its request came from (`px4.reply_link`)."""
+itself, as PX4's does; the answer goes back on the link its request came from: every handler is
+handler(msg, link), given the link the message came from, and passes it on to what answers."""
 
 import logging
 import math
@@ -54,15 +55,17 @@ class Receiver:
         self.streams, self.telemetry, self.link_counters = px4.streams, px4.telemetry, px4.link_counters
         self.mission_manager, self.parameters = px4.mission_manager, px4.parameters
         self.command_sender = px4.command_sender
+        # the flight stack's commands: handler(msg, now) (sim.mavlink.vehicle_commands)
         self.commands = VehicleCommands(px4).table
-        self.commands.update({
+        # what the receiver answers itself, on the request's link: handler(msg, link, now); taken before the above
+        self.receiver_commands = {
             mavlink.MAV_CMD_SET_MESSAGE_INTERVAL: self._cmd_set_message_interval,
             mavlink.MAV_CMD_GET_MESSAGE_INTERVAL: self._cmd_get_message_interval,
             mavlink.MAV_CMD_REQUEST_MESSAGE: self._cmd_request_message,
             mavlink.MAV_CMD_GET_HOME_POSITION: self._cmd_request_message,
             mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._cmd_request_message,
             mavlink.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._cmd_request_message,
-        })
+        }
         # PX4's MavlinkLogHandler, one per link (sim.mavlink.log_handler); the autopilot gives each its turn
         self.log_handlers = {link: LogHandler(px4.log_root, self.mav, link) for link in self.links}
         for link in self.links:
@@ -70,10 +73,8 @@ class Receiver:
 
     def _register_on(self, link):
         def on(msg_type, handler):
-            def handle(msg):
-                self.px4.reply_link = link
-                handler(msg)
-            link.on(msg_type, handle)
+            """handler(msg, link) for each `msg_type` from `link`."""
+            link.on(msg_type, lambda msg: handler(msg, link))
 
         def control(msg_type, handler):
             on(msg_type, self._control(msg_type, handler))
@@ -89,32 +90,33 @@ class Receiver:
         control('SETUP_SIGNING', self._on_setup_signing)
         control('MANUAL_CONTROL', self._on_manual_control)
         control('FOLLOW_TARGET', self._on_follow_target)
-        control('MISSION_COUNT', self._mission(lambda m, t: self.mission_manager.on_count(m, t)))
-        control('MISSION_ITEM_INT', self._mission(lambda m, t: self.mission_manager.on_item(m, t)))
-        control('MISSION_ITEM', self._mission(lambda m, t: self.mission_manager.on_item(m, t)))
-        control('MISSION_CLEAR_ALL', self._mission(lambda m, t: self.mission_manager.on_clear_all(m, t)))
-        control('MISSION_SET_CURRENT', self._mission(lambda m, t: self._set_current(m.seq)))
-        on('COMMAND_ACK', self.command_sender.on_command_ack)
+        control('MISSION_COUNT', self._mission(self.mission_manager.on_count))
+        control('MISSION_ITEM_INT', self._mission(self.mission_manager.on_item))
+        control('MISSION_ITEM', self._mission(self.mission_manager.on_item))
+        control('MISSION_CLEAR_ALL', self._mission(self.mission_manager.on_clear_all))
+        control('MISSION_SET_CURRENT', self._mission(lambda m, t, _link: self._set_current(m.seq)))
+        on('COMMAND_ACK', lambda msg, _link: self.command_sender.on_command_ack(msg))
         on('HEARTBEAT', self._on_heartbeat)
         on('PARAM_REQUEST_LIST', self.parameters.on_request_list)
         on('PARAM_REQUEST_READ', self.parameters.on_request_read)
-        on('MISSION_REQUEST_LIST', self._mission(lambda m, t: self.mission_manager.on_request_list(m, t)))
-        on('MISSION_REQUEST_INT', self._mission(lambda m, t: self.mission_manager.on_request(m, t)))
-        on('MISSION_REQUEST', self._mission(lambda m, t: self.mission_manager.on_request(m, t)))
-        on('MISSION_ACK', self._mission(lambda m, t: self.mission_manager.on_ack(m, t)))
+        on('MISSION_REQUEST_LIST', self._mission(self.mission_manager.on_request_list))
+        on('MISSION_REQUEST_INT', self._mission(self.mission_manager.on_request))
+        on('MISSION_REQUEST', self._mission(self.mission_manager.on_request))
+        on('MISSION_ACK', self._mission(self.mission_manager.on_ack))
         on('TIMESYNC', self._on_timesync)
         on('PING', self._on_ping)
+        # the link's own log handler answers on it
         log_handler = self.log_handlers[link]
-        on('LOG_REQUEST_LIST', log_handler.on_request_list)
-        on('LOG_REQUEST_DATA', log_handler.on_request_data)
-        on('LOG_REQUEST_END', log_handler.on_request_end)
-        control('LOG_ERASE', log_handler.on_erase)
+        on('LOG_REQUEST_LIST', lambda msg, _link: log_handler.on_request_list(msg))
+        on('LOG_REQUEST_DATA', lambda msg, _link: log_handler.on_request_data(msg))
+        on('LOG_REQUEST_END', lambda msg, _link: log_handler.on_request_end(msg))
+        control('LOG_ERASE', lambda msg, _link: log_handler.on_erase(msg))
 
     def _control(self, msg_type, handler):
         """`handler` for the allowed systems only."""
-        def handle(msg):
+        def handle(msg, link):
             if not self.px4.allowed_systems or msg.get_srcSystem() in self.px4.allowed_systems:
-                handler(msg)
+                handler(msg, link)
                 return
             self.counters['not_allowed'] += 1
             n = self.counters['not_allowed']
@@ -125,33 +127,33 @@ class Receiver:
 
     def _mission(self, handler):
         """`handler` for what PX4's mission manager takes (sim.mavlink.mission_manager: its own system id only)."""
-        def handle(msg):
+        def handle(msg, link):
             if self.mission_manager.for_me(msg):
-                handler(msg, self.px4.t())
+                handler(msg, self.px4.t(), link)
             else:
                 self.counters['ignored_other_system'] += 1
         return handle
 
-    def _ack(self, msg, command, result, delay_s=ACK_DELAY_S):
-        """COMMAND_ACK on the request's link, `delay_s` (simulated) after now (sim.mavlink.command_sender)."""
-        self.command_sender.ack(self.px4.reply_link, msg, command, result, delay_s)
+    def _ack(self, msg, link, command, result, delay_s=ACK_DELAY_S):
+        """COMMAND_ACK on the request's `link`, `delay_s` (simulated) after now (sim.mavlink.command_sender)."""
+        self.command_sender.ack(link, msg, command, result, delay_s)
         if self.px4.logger is not None:
             self.px4.logger.on_vehicle_command_ack(logged_topics.vehicle_command_ack(
                 self.px4.t(), command, result, (msg.get_srcSystem(), msg.get_srcComponent())))
 
-    def _on_heartbeat(self, msg):
-        self.px4.texts.on_heartbeat(self.px4.reply_link, msg, self.px4.t())
+    def _on_heartbeat(self, msg, link):
+        self.px4.texts.on_heartbeat(link, msg, self.px4.t())
         if msg.type == mavlink.MAV_TYPE_GCS and msg.get_srcSystem() != self.system_id:
             self.flight.on_gcs_heartbeat(self.px4.t())  # handle_message_heartbeat: telemetry_status's GCS
 
-    def _on_manual_control(self, msg):
+    def _on_manual_control(self, msg, _link):
         """A ground station's joystick (handle_message_manual_control: for this system or for all, target 0), its
         sticks scaled as PX4 scales them (sim.manual_control.from_mavlink)."""
         if msg.target in (0, self.system_id):
             sticks = manual_control.from_mavlink(msg.x, msg.y, msg.z, msg.r)
             self.flight.on_manual_control(self.px4.t(), sticks)
 
-    def _on_follow_target(self, msg):
+    def _on_follow_target(self, msg, _link):
         """The target of follow-me (handle_message_follow_target: degE7, m AMSL, NED m/s; no target fields)."""
         values = (msg.lat, msg.lon, msg.alt) + tuple(msg.vel)
         if not all(math.isfinite(v) for v in values):
@@ -161,7 +163,7 @@ class Receiver:
         position = self.frame.to_local(msg.lat * 1e-7, msg.lon * 1e-7, msg.alt)
         self.flight.on_follow_target(position, tuple(msg.vel), self.px4.t())
 
-    def _on_set_mode(self, msg):
+    def _on_set_mode(self, msg, link):
         """PX4's receiver turns SET_MODE into a DO_SET_MODE vehicle command for target_system, and the
         commander takes a command for its own system or for all (0), as for COMMAND_LONG."""
         if self.px4.logger is not None:  # published whatever the target
@@ -172,7 +174,7 @@ class Receiver:
         main, sub = px4_modes.split(msg.custom_mode)
         result = self.flight.request_base_mode(msg.base_mode, main, sub, self.px4.t())
         # PX4 answers the SET_MODE message as DO_SET_MODE
-        self._ack(msg, mavlink.MAV_CMD_DO_SET_MODE, result)
+        self._ack(msg, link, mavlink.MAV_CMD_DO_SET_MODE, result)
         self.px4.say_events()
 
     def _refused_before_dispatch(self, msg):
@@ -191,10 +193,10 @@ class Receiver:
             return UNSUPPORTED_MAV_FRAME
         return None
 
-    def _on_command(self, msg):
+    def _on_command(self, msg, link):
         refused = self._refused_before_dispatch(msg)
         if refused is not None:
-            self._ack(msg, msg.command, refused)
+            self._ack(msg, link, msg.command, refused)
             return
         if not self.px4.for_me(msg):
             return
@@ -211,14 +213,17 @@ class Receiver:
         if msg.command == mavlink.MAV_CMD_DO_SET_MODE:
             # PX4's MAVLink module acknowledges at once, then the commander gives its own result:
             # two COMMAND_ACK(176) 1-8 ms apart (reference/px4-sitl-measured.md, section 4)
-            self._ack(msg, msg.command, ACCEPTED, delay_s=0.0)
-        handler = self.commands.get(msg.command)
-        result = handler(msg, self.px4.t()) if handler else UNSUPPORTED
+            self._ack(msg, link, msg.command, ACCEPTED, delay_s=0.0)
+        if msg.command in self.receiver_commands:
+            result = self.receiver_commands[msg.command](msg, link, self.px4.t())
+        else:
+            handler = self.commands.get(msg.command)
+            result = handler(msg, self.px4.t()) if handler else UNSUPPORTED
         if result is not None:
-            self._ack(msg, msg.command, result)
+            self._ack(msg, link, msg.command, result)
         self.px4.say_events()
 
-    def _cmd_set_message_interval(self, msg, now):
+    def _cmd_set_message_interval(self, msg, link, now):
         """On the link the command came from, as PX4 (each MAVLink instance has its streams), with
         MavlinkReceiver::set_message_interval's reading: the id is (int)(param1 + 0.5); param3, param4
         and param7 (the response target) must round to 0; an interval within 1e-5 us of 0, or NaN,
@@ -230,30 +235,30 @@ class Receiver:
         interval = msg.param2
         if not math.isfinite(interval) or abs(interval) <= 1e-5:
             interval = 0  # the default rate
-        ok = msg_id is not None and self.streams[self.px4.reply_link].set_interval(msg_id, interval, now)
+        ok = msg_id is not None and self.streams[link].set_interval(msg_id, interval, now)
         return ACCEPTED if ok else FAILED
 
-    def _cmd_get_message_interval(self, msg, now):
+    def _cmd_get_message_interval(self, msg, link, now):
         """MESSAGE_INTERVAL for (int)(param1 + 0.5): a stream not running on this link is -1, as PX4
         (MavlinkReceiver::get_message_interval finds no stream of that id)."""
         msg_id = c_int_round(msg.param1)
-        interval = -1 if msg_id is None else self.streams[self.px4.reply_link].interval_us(msg_id)
-        self.px4.reply(self.mav.message_interval_encode((msg_id or 0) & 0xFFFF, -1 if interval == 0 else interval))
+        interval = -1 if msg_id is None else self.streams[link].interval_us(msg_id)
+        link.send(self.mav.message_interval_encode((msg_id or 0) & 0xFFFF, -1 if interval == 0 else interval))
         return ACCEPTED
 
-    def _cmd_request_message(self, msg, now):
+    def _cmd_request_message(self, msg, link, now):
         """PX4 answers DENIED for what it cannot send (an unknown id, home before there is one)."""
         msg_id = REQUESTED_BY_COMMAND.get(msg.command, msg.param1)
         if msg_id == mavlink.MAVLINK_MSG_ID_AVAILABLE_MODES:
-            return self._available_modes(msg.param2)
+            return self._available_modes(msg.param2, link)
         name = streams.NAMES_BY_ID.get(int(msg_id)) if math.isfinite(msg_id) else None
-        reply = self.build(name, self.px4.reply_link, now) if name else None
+        reply = self.build(name, link, now) if name else None
         if reply is None:
             return DENIED
-        self.px4.reply(reply)
+        link.send(reply)
         return ACCEPTED
 
-    def _available_modes(self, which):
+    def _available_modes(self, which, link):
         """AVAILABLE_MODES as PX4's stream answers a request (reference/px4-sitl-measured.md, section
         3): param2 0 all of them, N mode N only, each in a message of its own, before the ACK. PX4's
         MavlinkStreamAvailableModes::request_message refuses N above the number of modes (DENIED,
@@ -267,8 +272,8 @@ class Receiver:
         chosen = range(1, len(modes) + 1) if index == 0 else [index] if index > 0 else []
         for i in chosen:
             mode = modes[i - 1]
-            self.px4.reply(self.mav.available_modes_encode(len(modes), i, mode.standard_mode, mode.custom_mode,
-                                                        mode.properties, mode.mode_name.encode('ascii')))
+            link.send(self.mav.available_modes_encode(len(modes), i, mode.standard_mode, mode.custom_mode,
+                                                   mode.properties, mode.mode_name.encode('ascii')))
         return ACCEPTED
 
     def build(self, name, link, now):
@@ -277,7 +282,7 @@ class Receiver:
             return self.telemetry.link_node_status(self.link_counters[link], now)
         return self.telemetry.build(name, self.flight.status(now), now)
 
-    def _on_setpoint(self, msg):
+    def _on_setpoint(self, msg, link):
         """The three setpoint messages PX4 takes as the offboard signal (sim.offboard_input)."""
         if not self.px4.for_me(msg):
             return
@@ -300,10 +305,10 @@ class Receiver:
             return
         self.counters['setpoints_accepted'] += 1
         for hook in self.px4.on_setpoint_accepted:
-            hook(msg)
+            hook(msg, link)
         self.flight.on_offboard_setpoint(sp, self.px4.t())
 
-    def _on_setup_signing(self, msg):
+    def _on_setup_signing(self, msg, _link):
         """SETUP_SIGNING sets the key (all zeros clears it); with a key in force, only a frame
         signed with it gets this far. The key file is rewritten, as PX4 does."""
         if not self.px4.for_me(msg):
@@ -323,18 +328,17 @@ class Receiver:
             except OSError as err:
                 log.error('cannot write the signing key file %s: %s', self.px4.signing_key_file, err)
 
-    def _on_timesync(self, msg):
+    def _on_timesync(self, msg, link):
         """Answer a request (tc1 0) with the boot clock in ns, the clock of time_boot_ms, addressed to
         the requester, as PX4; answers to our own requests (tc1 set) are taken silently."""
         if msg.tc1 == 0:
-            self.px4.reply(TimesyncAnswer(int(self.px4.t() * 1e9), msg.ts1, msg.get_srcSystem(),
-                                                 msg.get_srcComponent()))
+            link.send(TimesyncAnswer(int(self.px4.t() * 1e9), msg.ts1, msg.get_srcSystem(), msg.get_srcComponent()))
 
-    def _on_ping(self, msg):
+    def _on_ping(self, msg, link):
         """A PING request (target 0/0) goes back to its sender with the sender as target, as PX4's
         MavlinkReceiver::handle_message_ping; a PING for anyone else is not a request."""
         if msg.target_system == 0 and msg.target_component == 0:
-            self.px4.reply(self.mav.ping_encode(msg.time_usec, msg.seq, msg.get_srcSystem(), msg.get_srcComponent()))
+            link.send(self.mav.ping_encode(msg.time_usec, msg.seq, msg.get_srcSystem(), msg.get_srcComponent()))
 
     def _set_current(self, seq):
         if self.flight.set_mission_current(seq):

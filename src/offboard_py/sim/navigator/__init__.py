@@ -15,6 +15,9 @@ Flights between points follow PX4's jerk-limited trajectory (sim.flyer, sim.traj
 Altitudes are relative to `home` (local NED), which the flight stack sets at arming.
 Pure: the vehicle model and the time are passed in; what must be said goes to `events`.
 It neither decides modes (the commander does) nor flies (the vehicle model does).
+
+One module per mode, as PX4's src/modules/navigator: navigator_mode (the base), loiter, takeoff,
+land, rtl, mission, follow_target; the Navigator is here.
 """
 
 import math
@@ -22,203 +25,25 @@ import math
 from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import vehicle as vm
-from offboard_py.sim.flyer import Flyer, land_setpoint, land_speed
+from offboard_py.sim.flyer import Flyer
 from offboard_py.sim.follow_target import FollowTarget
 from offboard_py.sim.mission_runner import MissionRunner
-from offboard_py.sim.rtl import rtl_return_down
+from offboard_py.sim.navigator.follow_target import FollowTargetMode
+from offboard_py.sim.navigator.land import Land
+from offboard_py.sim.navigator.loiter import Loiter
+from offboard_py.sim.navigator.mission import MissionMode
+from offboard_py.sim.navigator.navigator_mode import NavigatorMode
+from offboard_py.sim.navigator.rtl import Rtl
+from offboard_py.sim.navigator.takeoff import Takeoff
+
+__all__ = ['FollowTargetMode', 'GIMBAL_DELAY_S', 'Land', 'Loiter', 'MissionMode', 'Navigator', 'NavigatorMode', 'Rtl',
+           'Takeoff']
 
 
 # The gimbal commands of a return left 0.16-0.4 s after its setpoint took over (reference/conversations:
 # POSITION_TARGET_LOCAL_NED changed at 56.36-56.46 s and 56.76-56.96 s, COMMAND_LONG 1001 at 56.62 and 57.17 s),
 # 1.29-1.37 s after the last setpoint
 GIMBAL_DELAY_S = 0.25
-
-
-class NavigatorMode:
-    """One AUTO mode of the navigator, as PX4 gives each its own class (navigator/takeoff.cpp,
-    land.cpp, rtl.cpp, mission.cpp, loiter.cpp): on_activation() when the mode begins to fly,
-    setpoint() every step, landing() for EXTENDED_SYS_STATE. `nav` is the Navigator (the vehicle,
-    the parameters, home, the hold point and the events)."""
-
-    def __init__(self, nav):
-        self.nav = nav
-
-    def on_activation(self):
-        pass
-
-    def on_inactivation(self):
-        pass
-
-    def setpoint(self, armed, now_s):
-        return vm.hold(self.nav.hold_point, self.nav.hold_yaw)
-
-    def landing(self):
-        return False
-
-    def taking_off(self):
-        """A TAKEOFF setpoint is flown (EXTENDED_SYS_STATE TAKEOFF, as PX4's stream derives it from
-        the current position setpoint's type)."""
-        return False
-
-
-class Loiter(NavigatorMode):
-    """AUTO.LOITER, and any mode without a setpoint of its own: hold where the mode began (after a
-    takeoff, at the takeoff altitude), or fly to a reposition target (MAV_CMD_DO_REPOSITION) and
-    hold there, as PX4's loiter.cpp does."""
-
-    def __init__(self, nav):
-        super().__init__(nav)
-        self.after_takeoff = None  # where to hold once a takeoff completes
-        self.reposition = None     # (target local NED, xy speed or None for MPC_XY_CRUISE, yaw or NaN)
-
-    def on_activation(self):
-        if self.after_takeoff is not None:
-            self.nav.hold_point = self.after_takeoff
-
-    def on_inactivation(self):
-        self.reposition = None
-
-    def setpoint(self, armed, now_s):
-        if self.reposition is None or not armed:
-            return super().setpoint(armed, now_s)
-        nav = self.nav
-        target, speed, yaw = self.reposition
-        sp = nav.flyer.fly_to(nav.vehicle, target, now_s, xy_speed=speed)
-        return sp if yaw != yaw else sp._replace(yaw=yaw)
-
-
-class Takeoff(NavigatorMode):
-    """AUTO.TAKEOFF: climb above the takeoff point to its altitude; report TakeoffComplete within
-    NAV_MC_ALT_RAD, and have the loiter that follows hold there."""
-
-    def __init__(self, nav):
-        super().__init__(nav)
-        self.target = None  # local NED
-
-    def on_activation(self):
-        nav, v = self.nav, self.nav.vehicle
-        if self.target is None:
-            self.target = (v.position[0], v.position[1], nav.home[2] - nav.params['MIS_TAKEOFF_ALT'])
-
-    def on_inactivation(self):
-        self.target = None
-
-    def setpoint(self, armed, now_s):
-        nav, v = self.nav, self.nav.vehicle
-        if self.target is None:
-            return super().setpoint(armed, now_s)
-        if armed and abs(v.position[2] - self.target[2]) <= nav.params['NAV_MC_ALT_RAD']:
-            nav.events.append(ev.TakeoffComplete())
-            nav.loiter.after_takeoff = self.target  # PX4 loiters at the takeoff altitude
-            return nav.flyer.direct(vm.hold(self.target, nav.hold_yaw))
-        return nav.flyer.take_off(v, self.target, now_s)
-
-    def taking_off(self):
-        return True
-
-
-class Land(NavigatorMode):
-    """AUTO.LAND: descend where the mode began at PX4's landing speeds."""
-
-    def __init__(self, nav):
-        super().__init__(nav)
-        self.xy = None
-
-    def on_activation(self):
-        v = self.nav.vehicle
-        self.xy = (v.position[0], v.position[1])
-
-    def setpoint(self, armed, now_s):
-        return land_setpoint(self.nav.params, self.xy, self.nav.vehicle)
-
-    def landing(self):
-        return True
-
-
-class Rtl(NavigatorMode):
-    """AUTO.RTL, PX4's direct return: climb to the return altitude, return home at MPC_XY_CRUISE,
-    descend to RTL_DESCEND_ALT without stopping, land."""
-
-    def __init__(self, nav):
-        super().__init__(nav)
-        self.phase = None
-        self.down = None  # the return altitude as local z
-
-    def on_activation(self):
-        nav = self.nav
-        self.down = rtl_return_down(nav.params, nav.vehicle.position, nav.home)
-        self.phase = 'climb'
-
-    def landing(self):
-        return self.phase in ('descend', 'land')
-
-    def setpoint(self, armed, now_s):
-        nav = self.nav
-        v, p, home, f = nav.vehicle, nav.params, nav.home, nav.flyer
-        pos = v.position
-        if self.phase == 'climb':
-            if pos[2] <= self.down + p['NAV_MC_ALT_RAD']:
-                self.phase = 'return'
-            else:
-                return f.fly_to(v, (nav.hold_point[0], nav.hold_point[1], self.down), now_s)
-        if self.phase == 'return':
-            if math.hypot(pos[0] - home[0], pos[1] - home[1]) <= p['NAV_ACC_RAD']:
-                self.phase = 'descend'
-            else:
-                return f.fly_to(v, (home[0], home[1], self.down), now_s)
-        if self.phase == 'descend':
-            descend_down = home[2] - p['RTL_DESCEND_ALT']
-            if pos[2] >= descend_down - p['NAV_MC_ALT_RAD']:
-                self.phase = 'land'
-            else:
-                # no stop at RTL_DESCEND_ALT: the landing goes on at the landing speed there
-                return f.fly_to(v, (home[0], home[1], descend_down), now_s,
-                                speed_at_target=land_speed(p, p['RTL_DESCEND_ALT']))
-        if v.landed:
-            nav._idle_on_landing()
-        return f.direct(land_setpoint(p, (home[0], home[1]), v))
-
-
-class MissionMode(NavigatorMode):
-    """AUTO.MISSION: fly the mission's items (MissionRunner), reporting those reached."""
-
-    def on_activation(self):
-        nav = self.nav
-        nav.mission.restart_if_finished()
-        nav.events.append(ev.MissionCurrent(nav.mission.seq))
-
-    def setpoint(self, armed, now_s):
-        nav = self.nav
-        if not armed:
-            return super().setpoint(armed, now_s)
-        sp = nav.mission.setpoint(nav.vehicle, now_s)
-        for severity, text in nav.mission.texts:
-            nav.events.append(ev.StatusText(severity, text))
-        nav.mission.texts.clear()
-        nav.events.extend(nav.mission.commands)
-        nav.mission.commands.clear()
-        for seq in nav.mission.take_reached():
-            nav.events.append(ev.ItemReached(seq))
-            if not nav.mission.finished:
-                nav.events.append(ev.MissionCurrent(nav.mission.seq))
-        return sp
-
-    def landing(self):
-        return self.nav.mission.landing()
-
-    def taking_off(self):
-        return self.nav.mission.taking_off()
-
-
-class FollowTargetMode(NavigatorMode):
-    """AUTO.FOLLOW_TARGET: PX4's follow-me (sim.follow_target), on the target the FOLLOW_TARGET messages give."""
-
-    def on_activation(self):
-        self.nav.follow.reset()
-
-    def setpoint(self, armed, now_s):
-        nav = self.nav
-        return nav.follow.setpoint(nav.vehicle, nav.home, nav.params, now_s)
 
 
 class Navigator:
