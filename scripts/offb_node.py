@@ -102,7 +102,7 @@ class OffbNode:
             self.logic.on_setpoint_sent(now.to_sec())  # the first prestream_count of them come before any request
             request = self.logic.take_request(now.to_sec())
         if request is not None:
-            self.requests.put_nowait(request)  # one at a time: none other is due until it is done
+            self.requests.put_nowait(request)  # one at a time: none other is taken until it is done
 
     def wait_for_connection(self):
         """Wait for Flight Controller connection. Added: saying so every WAIT_LOG_PERIOD_S."""

@@ -193,8 +193,10 @@ class OffboardLogic:
 
     def take_request(self, now_s):
         """The request due now, taken: none other is due until on_request_done(). None if none is due."""
-        self.in_flight = self.next_request(now_s)
-        return self.in_flight
+        request = self.next_request(now_s)
+        if request is not None:
+            self.in_flight = request
+        return request
 
     def on_request_done(self, now_s):
         """A request came back (or failed): the next one waits a full interval from now."""

@@ -203,6 +203,8 @@ def test_a_request_taken_is_not_due_again_until_it_is_done():
     assert logic.next_request(t + 5) is Request.SET_OFFBOARD, 'asking takes nothing'
     assert logic.next_request(t + 5) is Request.SET_OFFBOARD
     assert logic.take_request(t + 5) is Request.SET_OFFBOARD
+    for k in range(100):  # the stream asks at every setpoint while the call is out
+        assert logic.take_request(t + 5.05 + 0.05 * k) is None, 'one request at a time (tick %d)' % k
     assert logic.next_request(t + 30) is None and logic.take_request(t + 30) is None, 'one request at a time'
     logic.on_request_done(t + 31)
     assert logic.next_request(t + 35.9) is None
