@@ -4,8 +4,9 @@ wall time the clock may not run further than two of its periods past its last se
 as the node's process waits for the CPU (a thread of it runnable and not running: `runnable(publisher)`, read
 from /proc where the node runs on this host) up to STARVED_HOLD_WALL_S. A node silent and not waiting to run
 has stopped (killed, or done, or pausing on purpose) and the clock goes on without it. The offboard-loss
-failsafe is timed in simulated seconds, which stand still meanwhile: the wait moves no deadline. Pure: the
-arrivals' simulated and wall times, and whether a publisher waits to run, are given."""
+failsafe is timed in simulated seconds, which stand still meanwhile: the wait moves no deadline. StreamWatch is
+pure (the arrivals' simulated and wall times, and whether a publisher waits to run, are given); waits_for_cpu
+is what reads /proc for it."""
 
 import os
 
@@ -35,6 +36,7 @@ class StreamWatch:
         self.hold_wall_s, self.starved_hold_wall_s = hold_wall_s, starved_hold_wall_s
         self.runnable = runnable or (lambda publisher: False)
         self.streams = {}
+        self._asked = (None, False)  # ((publisher, wall_s), its answer): limit() and let_go() of one tick ask once
 
     def arrived(self, publisher, sim_s, wall_s):
         stream = self.streams.get(publisher)
@@ -52,7 +54,12 @@ class StreamWatch:
         if not stream.steady() or stream.let_go:
             return False
         silent = wall_s - stream.last_wall_s
-        return silent < self.hold_wall_s or (silent < self.starved_hold_wall_s and self.runnable(publisher))
+        return silent < self.hold_wall_s or (silent < self.starved_hold_wall_s and self._runnable(publisher, wall_s))
+
+    def _runnable(self, publisher, wall_s):
+        if self._asked[0] != (publisher, wall_s):
+            self._asked = ((publisher, wall_s), self.runnable(publisher))
+        return self._asked[1]
 
     def limit(self, wall_s):
         """The simulated time the clock may run to for the streams' sake, or None (no stream holds it)."""

@@ -259,3 +259,20 @@ def test_the_sweep_removes_only_what_killed_runs_left(tmp_path, wall):
     assert removed == [left_path]
     assert not os.path.exists(left_path)
     assert os.path.exists(live_path) and os.path.exists(young_path) and other.exists()
+
+
+def test_one_tick_looks_at_a_silent_nodes_process_once():
+    """limit() and let_go() of one tick (one wall time) ask whether the node waits for the CPU once: it is a
+    read of /proc, 100 times a wall second."""
+    from offboard_py.stream_watch import HOLD_WALL_S, STEADY_COUNT, StreamWatch
+    asked = []
+    watch = StreamWatch(runnable=lambda publisher: asked.append(publisher) or True)
+    sim, wall = 10.0, 100.0
+    for _ in range(STEADY_COUNT):
+        sim, wall = sim + 0.05, wall + 0.01
+        watch.arrived('/node', sim, wall)
+    tick = wall + HOLD_WALL_S + 1.0
+    assert watch.let_go(tick) == [] and watch.limit(tick) is not None
+    assert asked == ['/node']
+    watch.limit(tick + 0.01)
+    assert asked == ['/node', '/node'], 'asked again at the next tick'
