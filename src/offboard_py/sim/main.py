@@ -18,7 +18,7 @@ from offboard_py.simtime import SimClock, speed_option
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
 from offboard_py.sim.commander import READY_S
 from offboard_py.sim.loop import run_together
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamRejected
 
 
@@ -248,7 +248,7 @@ def main(argv=None):
             instance = args.instance + k
             if instance > 99:
                 raise ValueError('--vehicles %d from instance %d: instances end at 99' % (args.vehicles, args.instance))
-            home = LocalFrame(*args.home).to_global(args.spawn[1] + k * VEHICLE_SPACING_M, args.spawn[0], 0.0)
+            home = GeoOrigin(*args.home).to_global(args.spawn[1] + k * VEHICLE_SPACING_M, args.spawn[0], 0.0)
             sims.append(SimulatedPx4(
                 instance=instance, home=home, bind_host=args.bind, local_port=args.local_port,
                 remote_port=args.remote_port, param_overrides=args.params, ready_delay_s=args.ready_delay,

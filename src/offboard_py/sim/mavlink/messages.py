@@ -126,10 +126,10 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
     """Builds the autopilot's messages with `mav` (a pymavlink codec) from a flight Status, as wire.Outgoing
     messages (pymavlink's message of the same arguments on demand)."""
 
-    def __init__(self, mav, frame, params, boot_s=0.0):
+    def __init__(self, mav, origin, params, boot_s=0.0):
         # the streams' messages are wire.Outgoing: framed by the links from their arguments, as pymavlink
         # would pack them, without a pymavlink message object each
-        self.mav, self.frame, self.params = wire.Encoder(mav), frame, params
+        self.mav, self.origin, self.params = wire.Encoder(mav), origin, params
         self.boot_s = boot_s
         self.uid = UID_BASE + mav.srcSystem
         self.ping_seq = 0
@@ -165,7 +165,7 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
     def _global(self, st):
         """(lat_e7, lon_e7, alt_amsl_mm) of the vehicle."""
         def compute(s):
-            lat, lon, alt = self.frame.to_global(*s.position)
+            lat, lon, alt = self.origin.to_global(*s.position)
             return int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000))
         return self._shared(st, 'global', compute)
 
@@ -232,15 +232,15 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
             *(int(round(c * 100)) for c in st.velocity), heading)
 
     def _amsl(self, st):
-        """Altitude AMSL (m) of the estimate: the local frame's origin is at the frame's altitude."""
-        return self.frame.alt0 - st.position[2]
+        """Altitude AMSL (m) of the estimate: local NED's z is 0 at the origin's altitude."""
+        return self.origin.alt0 - st.position[2]
 
     def _altitude(self, st, now_s):
         # PX4's ALTITUDE: monotonic and amsl from the estimate, local = -z, relative to home;
         # flat ground at home's altitude: terrain is home's AMSL altitude, the clearance the height.
         # Every field is a number, as PX4 SITL's (never NaN).
         amsl = self._amsl(st)
-        home_amsl = self.frame.alt0 - st.home[2]
+        home_amsl = self.origin.alt0 - st.home[2]
         return self.mav.altitude_encode(self.time_usec(now_s), amsl, amsl, -st.position[2], st.height, home_amsl,
                                         max(st.height, 0.0))
 
@@ -259,7 +259,7 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
             return None
         # home is where the vehicle was armed (PX4 sets it again at arming), in both frames; time_usec is
         # the boot time it was set at, as PX4's (2448000 and then 3792000 in the recorded conversation)
-        lat, lon, alt = self.frame.to_global(*st.home)
+        lat, lon, alt = self.origin.to_global(*st.home)
         return self.mav.home_position_encode(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
                                              *st.home, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
                                              int(round(st.home_set_s * 1e6)))
@@ -278,7 +278,7 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
         if not (st.armed and st.nav_mode.startswith('AUTO.')):
             return None
         p = tuple(sp if sp == sp else now for sp, now in zip(st.position_setpoint, st.position))
-        lat, lon, alt = self.frame.to_global(*p)
+        lat, lon, alt = self.origin.to_global(*p)
         v, a = st.velocity_setpoint, st.acceleration_setpoint
         return self.mav.position_target_global_int_encode(
             self.time_boot_ms(now_s), mavlink.MAV_FRAME_GLOBAL_INT, 0, int(round(lat * 1e7)), int(round(lon * 1e7)),
