@@ -11,7 +11,7 @@ import pytest
 
 from offboard_py import dialect
 from offboard_py.dialect import mavlink
-from offboard_py.sim import offboard_input
+from offboard_py.sim import flight_math, offboard_input
 from offboard_py.sim.mavlink import link_stats, messages, sensor_messages
 from offboard_py.sim.mavlink import streams as sim_streams
 from offboard_py.sim.battery_simulator import BatterySimulator
@@ -349,7 +349,7 @@ def test_hover_telemetry_is_consistent():
 
 def test_body_velocity_of_odometry():
     yawed_90 = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # nose east
-    assert messages.to_body(yawed_90, (0.0, 1.0, 0.0)) == pytest.approx((1.0, 0.0, 0.0), abs=1e-9)
+    assert flight_math.to_body(yawed_90, (0.0, 1.0, 0.0)) == pytest.approx((1.0, 0.0, 0.0), abs=1e-9)
 
 
 def test_disarmed_on_the_ground():

@@ -154,7 +154,7 @@ def attitude_setpoint(type_mask, q_wxyz, thrust, body_rates=(0.0, 0.0, 0.0)):
     if norm < 1e-6:
         raise SetpointRejected('attitude quaternion is all zero: not a rotation')
     q = tuple(c / norm for c in q_wxyz)
-    return vm.setpoint(yaw=frames.euler(q)[2], attitude=q, thrust=float(thrust))
+    return vm.setpoint(yaw=frames.quaternion_yaw(frames.wxyz_to_xyzw(*q)), attitude=q, thrust=float(thrust))
 
 
 def from_attitude_message(msg):

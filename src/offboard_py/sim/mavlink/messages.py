@@ -14,10 +14,10 @@ import math
 
 from offboard_py import frames, px4_modes, wire
 from offboard_py.dialect import mavlink
+from offboard_py.sim.flight_math import quaternion_from_thrust, to_body
 from offboard_py.sim.mavlink.sensor_messages import UINT16_UNKNOWN, SensorMessages
 from offboard_py.sim.mavlink.system_messages import UID_BASE, SystemMessages
 from offboard_py.sim.rtl import rtl_time_estimate
-from offboard_py.sim.vehicle import quaternion_from_thrust
 
 # SYS_STATUS as PX4 SITL (SIH quadrotor) reports it: present 0x0300402F, enabled 0x0301402F,
 # health 0x1320C83F with PREARM_CHECK while the arming checks pass
@@ -47,14 +47,6 @@ for _i, _var in zip(_DIAGONAL, (0.01, 0.01, 0.02, 1e-4, 1e-4, 1e-3)):
 for _i, _var in zip(_DIAGONAL, (0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-4)):
     VELOCITY_COVARIANCE[_i] = _var
 INT16_UNKNOWN = 0x7FFF
-
-
-def to_body(q, v):
-    """Rotate a NED vector into the FRD body frame of attitude q (w, x, y, z)."""
-    w, x, y, z = q
-    return ((1 - 2 * (y * y + z * z)) * v[0] + 2 * (x * y + w * z) * v[1] + 2 * (x * z - w * y) * v[2],
-            2 * (x * y - w * z) * v[0] + (1 - 2 * (x * x + z * z)) * v[1] + 2 * (y * z + w * x) * v[2],
-            2 * (x * z + w * y) * v[0] + 2 * (y * z - w * x) * v[1] + (1 - 2 * (x * x + y * y)) * v[2])
 
 
 def position_target_type_mask(position, velocity, acceleration, yaw, yaw_rate):
@@ -170,7 +162,7 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
         return self._shared(st, 'global', compute)
 
     def _euler(self, st):
-        return self._shared(st, 'euler', lambda s: frames.euler(s.attitude))
+        return self._shared(st, 'euler', lambda s: frames.euler(frames.wxyz_to_xyzw(*s.attitude)))
 
     def _course(self, st):
         """(ground speed m/s, course over ground in rad or None when not moving)."""
