@@ -129,9 +129,14 @@ def world_orientation_ned_to_enu(q_ned):
     return quaternion_multiply(Q_ENU_NED, q_ned)
 
 
+def quaternion_conjugate(q):
+    """The conjugate of q (x, y, z, w): the inverse rotation of a unit quaternion."""
+    return (-q[0], -q[1], -q[2], q[3])
+
+
 def rotate(q, v):
-    """Rotate vector v by quaternion q (x, y, z, w)."""
-    qv = quaternion_multiply(quaternion_multiply(q, (v[0], v[1], v[2], 0.0)), (-q[0], -q[1], -q[2], q[3]))
+    """Rotate vector v by quaternion q (x, y, z, w); by quaternion_conjugate(q) for the inverse."""
+    qv = quaternion_multiply(quaternion_multiply(q, (v[0], v[1], v[2], 0.0)), quaternion_conjugate(q))
     return qv[0], qv[1], qv[2]
 
 

@@ -61,6 +61,13 @@ def wrap_pi(angle):
     return math.atan2(math.sin(angle), math.cos(angle))
 
 
+def rotate_by_yaw(x, y, yaw):
+    """A horizontal vector turned by `yaw` (rad) about the down axis: (forward, right) in the heading
+    frame -> (north, east)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return c * x - s * y, s * x + c * y
+
+
 def alpha_filter(state, sample, dt, time_constant):
     """PX4's AlphaFilter: one update with alpha = dt / (dt + time constant)."""
     denominator = time_constant + dt

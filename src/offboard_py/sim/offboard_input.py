@@ -23,6 +23,7 @@ import math
 from offboard_py import frames
 from offboard_py.dialect import mavlink
 from offboard_py.sim import vehicle as vm
+from offboard_py.sim.flight_math import rotate_by_yaw
 
 _AXIS_IGNORE_BITS = (mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE,
                      mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE,
@@ -53,14 +54,12 @@ def offboard_setpoint(frame, type_mask, position, velocity, acceleration, yaw, y
     nan = vm.NAN
     used = [float(v) if not type_mask & bit else nan for bit, v in zip(_AXIS_IGNORE_BITS, values)]
     if frame == mavlink.MAV_FRAME_BODY_NED:
-        c, s = math.cos(vehicle_yaw), math.sin(vehicle_yaw)
         used[0:3] = [nan, nan, nan]
         for k in (3, 6):
-            x, y = used[k], used[k + 1]
             if not all(v == v for v in used[k:k + 3]):
                 used[k:k + 3] = [nan, nan, nan]  # PX4: one axis ignored drops the vector
             else:
-                used[k], used[k + 1] = c * x - s * y, s * x + c * y
+                used[k], used[k + 1] = rotate_by_yaw(used[k], used[k + 1], vehicle_yaw)
     if not any(v == v for v in used):
         raise SetpointRejected('no position, velocity or acceleration in setpoint (type_mask 0x%x)' % type_mask)
     yaw_sp = float(yaw) if not type_mask & mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE and yaw == yaw else nan
