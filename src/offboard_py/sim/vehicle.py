@@ -32,7 +32,7 @@ import math
 from collections import deque, namedtuple
 
 from offboard_py.sim.estimator import Estimator, ground_start
-from offboard_py.sim.flight_math import GRAVITY, NAN, clamp, is_set, quaternion_from_thrust
+from offboard_py.sim.flight_math import GRAVITY, NAN, clamp, is_set, quaternion_from_thrust, wrap_pi
 from offboard_py.sim.land_detector import LandDetector
 from offboard_py.sim.position_control import PositionControl
 from offboard_py.sim.sensors import SihImu
@@ -156,7 +156,7 @@ class VehicleModel:
                     thrust_sp = [0.0, 0.0, -p['MPC_THR_MIN']]
                     control.integral = [0.0, 0.0, 0.0]
                 if is_set(sp.yaw):
-                    yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
+                    yaw_rate = YAW_P * wrap_pi(sp.yaw - self.yaw)
                 else:
                     yaw_rate = sp.yaw_rate if is_set(sp.yaw_rate) else 0.0
                 self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
@@ -182,7 +182,7 @@ class VehicleModel:
                                - drag * velocity[i] + gust[i])
             velocity[i] += acceleration[i] * dt
             position[i] += velocity[i] * dt
-        self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
+        self.yaw = wrap_pi(self.yaw + self.yaw_rate * dt)
         # at rest with the motors off: the quiet estimate and IMU recorded on the ground (sections 2
         # and 7 were disarmed); with the motors on the controller flies the full noise, as in the air
         on_ground = self._ground(now_s)
@@ -221,7 +221,7 @@ class VehicleModel:
         if sp.attitude is None:
             yaw_rate = sp.rates[2]
         else:
-            yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
+            yaw_rate = YAW_P * wrap_pi(sp.yaw - self.yaw)
         self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
         self.setpoint = sp
         return thrust_sp
