@@ -98,7 +98,9 @@ class SimulatedPx4:
         self.command_sender = CommandSender(clock, self.mav, self.system_id, self.links)
         self.texts = StatustextQueue(self.links, self.telemetry.mav)
         self.origin_sent = False  # GPS_GLOBAL_ORIGIN's one message on every link (ORIGIN_FIRST_SENT_S)
-        self.on_setpoint_accepted = []  # hooks: f(msg, link) for every accepted setpoint (the benchmark's log)
+        # the instrumentation seam (sim.instrumentation, for ./run bench): f(msg, link) for every accepted
+        # setpoint; empty unless the benchmark measures (PX4 has nothing of the kind)
+        self.setpoint_probes = []
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
         # Signing as PX4 does it with a key on its SD card: outgoing signed, incoming must be.

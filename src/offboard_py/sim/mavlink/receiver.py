@@ -304,8 +304,8 @@ class Receiver:
                 log.warning('%s rejected (%d setpoints so far): %s', kind, self.counters['setpoints_rejected'], err)
             return
         self.counters['setpoints_accepted'] += 1
-        for hook in self.px4.on_setpoint_accepted:
-            hook(msg, link)
+        for probe in self.px4.setpoint_probes:
+            probe(msg, link)
         self.flight.on_offboard_setpoint(sp, self.px4.t())
 
     def _on_setup_signing(self, msg, _link):
