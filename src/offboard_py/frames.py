@@ -6,8 +6,9 @@ One place for every convention the bridge uses, as mavros (ftf) does it:
 - an orientation is q_ned_frd = q_NED_ENU * q_enu_flu * q_FLU_FRD (and back);
 - yaw_ned = pi/2 - yaw_enu, wrapped;
 - a Pose's orientation is first made the rotation mavros takes from it (pose_rotation).
-Quaternions are (x, y, z, w) tuples, the order of ROS messages. MAVLink's
-ATTITUDE_QUATERNION order (w, x, y, z) is converted at the edge. Pure functions.
+Every quaternion here is an (x, y, z, w) tuple, the order of ROS messages; MAVLink's (w, x, y, z)
+is converted at the edge (wxyz_to_xyzw). The simulator's own (w, x, y, z) helpers are sim.flight_math's.
+Pure functions.
 """
 
 import math
@@ -71,19 +72,15 @@ def quaternion_from_yaw(yaw):
 def quaternion_yaw(q):
     """Yaw (rad) of a quaternion (x, y, z, w), ZYX convention (mavros's ftf::quaternion_get_yaw)."""
     x, y, z, w = q
-    return _yaw(w, x, y, z)
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def euler(q_wxyz):
-    """(roll, pitch, yaw) in rad, ZYX convention, of a quaternion (w, x, y, z): MAVLink's and PX4's order."""
-    w, x, y, z = q_wxyz
+def euler(q):
+    """(roll, pitch, yaw) in rad, ZYX convention, of a quaternion (x, y, z, w)."""
+    x, y, z, w = q
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-    return roll, pitch, _yaw(w, x, y, z)
-
-
-def _yaw(w, x, y, z):
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, quaternion_yaw(q)
 
 
 # How far |q|^2 may be from 1 for q to be taken as the rotation it is: mavros's rotation of such a q
@@ -132,9 +129,14 @@ def world_orientation_ned_to_enu(q_ned):
     return quaternion_multiply(Q_ENU_NED, q_ned)
 
 
+def quaternion_conjugate(q):
+    """The conjugate of q (x, y, z, w): the inverse rotation of a unit quaternion."""
+    return (-q[0], -q[1], -q[2], q[3])
+
+
 def rotate(q, v):
-    """Rotate vector v by quaternion q (x, y, z, w)."""
-    qv = quaternion_multiply(quaternion_multiply(q, (v[0], v[1], v[2], 0.0)), (-q[0], -q[1], -q[2], q[3]))
+    """Rotate vector v by quaternion q (x, y, z, w); by quaternion_conjugate(q) for the inverse."""
+    qv = quaternion_multiply(quaternion_multiply(q, (v[0], v[1], v[2], 0.0)), quaternion_conjugate(q))
     return qv[0], qv[1], qv[2]
 
 

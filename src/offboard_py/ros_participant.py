@@ -3,13 +3,13 @@ thread writes the node's ROS time (the last /clock it took) into its slot of the
 second, so the clock waits while this node falls behind (starved of CPU) instead of running on without it.
 Nothing in real time, nor in simulated time without a board."""
 
+import os
 import threading
 import time
 
 import rospy
 
 from offboard_py.clock_board import Board, BoardError, board_path
-from offboard_py.stream_watch import waits_for_cpu
 
 UPDATE_WALL_S = 0.01
 
@@ -59,6 +59,24 @@ def join(name, limit=None):
     except (BoardError, ValueError) as err:
         rospy.logwarn('%s: not a participant of the governed clock: %s', name, err)
         return None
+
+
+def waits_for_cpu(pid, proc='/proc'):
+    """True while a thread of process `pid` is runnable (state R in /proc/PID/task/*/stat): it wants the CPU
+    it is not given, or is on it. False for a process whose threads all sleep, or that is gone."""
+    try:
+        tasks = os.listdir(os.path.join(proc, str(pid), 'task'))
+    except OSError:
+        return False
+    for task in tasks:
+        try:
+            with open(os.path.join(proc, str(pid), 'task', task, 'stat')) as f:
+                stat = f.read()
+        except OSError:
+            continue
+        if stat[stat.rfind(')') + 2:stat.rfind(')') + 3] == 'R':
+            return True
+    return False
 
 
 class PublisherProcesses:

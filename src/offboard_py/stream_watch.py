@@ -5,10 +5,8 @@ as the node's process waits for the CPU (a thread of it runnable and not running
 from /proc where the node runs on this host) up to STARVED_HOLD_WALL_S. A node silent and not waiting to run
 has stopped (killed, or done, or pausing on purpose) and the clock goes on without it. The offboard-loss
 failsafe is timed in simulated seconds, which stand still meanwhile: the wait moves no deadline. StreamWatch is
-pure (the arrivals' simulated and wall times, and whether a publisher waits to run, are given); waits_for_cpu
-is what reads /proc for it."""
-
-import os
+pure (the arrivals' simulated and wall times, and whether a publisher waits to run, are given);
+ros_participant.waits_for_cpu is what reads /proc for it (PublisherProcesses finds the process)."""
 
 STEADY_COUNT = 20          # setpoints before a stream counts as steady
 MAX_PERIOD_S = 0.5         # simulated seconds: slower than 2 Hz is not a stream PX4's offboard mode keeps
@@ -80,21 +78,3 @@ class StreamWatch:
     def forget(self, publisher):
         """Its connection closed (the node ended): it holds nothing."""
         self.streams.pop(publisher, None)
-
-
-def waits_for_cpu(pid, proc='/proc'):
-    """True while a thread of process `pid` is runnable (state R in /proc/PID/task/*/stat): it wants the CPU
-    it is not given, or is on it. False for a process whose threads all sleep, or that is gone."""
-    try:
-        tasks = os.listdir(os.path.join(proc, str(pid), 'task'))
-    except OSError:
-        return False
-    for task in tasks:
-        try:
-            with open(os.path.join(proc, str(pid), 'task', task, 'stat')) as f:
-                stat = f.read()
-        except OSError:
-            continue
-        if stat[stat.rfind(')') + 2:stat.rfind(')') + 3] == 'R':
-            return True
-    return False

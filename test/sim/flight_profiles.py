@@ -12,7 +12,7 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import offboard_input
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.mavlink.mission_manager import Item
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
@@ -35,8 +35,8 @@ class Run:
 
     def __init__(self, ideal=False, seed=None, params=None):
         self.params = ParamStore(dict(params or {}))
-        self.frame = LocalFrame(*HOME)
-        self.flight = Flight(self.params, self.frame, 0.0, ready_delay_s=0.0, ideal=ideal, seed=seed)
+        self.origin = GeoOrigin(*HOME)
+        self.flight = Flight(self.params, self.origin, 0.0, ready_delay_s=0.0, ideal=ideal, seed=seed)
         self.t = 0.0
         self.phase = 'wait'
         self.setpoint = None
@@ -119,7 +119,7 @@ def auto_takeoff_land_profile(**kwargs):
     r.run(1.0)
     r.phase = 'takeoff'
     assert f.request_arming(True, False, r.t) == M.MAV_RESULT_ACCEPTED
-    assert f.takeoff(NAN, r.frame.alt0, r.t) == M.MAV_RESULT_ACCEPTED
+    assert f.takeoff(NAN, r.origin.alt0, r.t) == M.MAV_RESULT_ACCEPTED
     figures = {'takeoff_to_loiter_s': r.until(lambda st: st.nav_mode == 'AUTO.LOITER', 30.0)}
     figures['takeoff_alt_reached_m'] = r.status().height
     r.run(5.0)
@@ -186,7 +186,7 @@ def land_from_height_profile(height_m, **kwargs):
     f = r.flight
     r.run(1.0)
     f.request_arming(True, False, r.t)
-    f.takeoff(r.frame.alt0 + height_m, r.frame.alt0, r.t)
+    f.takeoff(r.origin.alt0 + height_m, r.origin.alt0, r.t)
     r.until(lambda st: st.nav_mode == 'AUTO.LOITER', 60.0)
     r.run(8.0)
     r.phase = 'land'

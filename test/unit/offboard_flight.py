@@ -10,8 +10,8 @@ SETPOINT_PERIOD_S = 0.05  # the tutorial's 20 Hz
 class OffboardFlight:
     """`setpoint` (None: nothing streamed) goes to the flight every SETPOINT_PERIOD_S while `streaming`."""
 
-    def __init__(self, params, frame, **flight_args):
-        self.flight = Flight(params, frame, 0.0, ready_delay_s=0.0, **flight_args)
+    def __init__(self, params, origin, **flight_args):
+        self.flight = Flight(params, origin, 0.0, ready_delay_s=0.0, **flight_args)
         self.t = 0.0
         self.setpoint = None
         self.streaming = True

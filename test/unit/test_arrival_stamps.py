@@ -1,6 +1,6 @@
 """The benchmark's setpoint log times a setpoint by when its datagram reached the simulator's socket
 (the kernel's stamp), not by when a busy simulator got round to reading it, and keeps the read time
-beside it (MavlinkLink.stamp_arrivals, sim.main.SetpointLog). Real UDP on loopback."""
+beside it (MavlinkLink.stamp_arrivals, sim.instrumentation.SetpointLog). Real UDP on loopback."""
 
 import socket
 import time
@@ -10,7 +10,7 @@ import pytest
 from offboard_py import wire
 from offboard_py.dialect import mavlink
 from offboard_py.mavlink_link import MavlinkLink
-from offboard_py.sim.main import SetpointLog, StallLog
+from offboard_py.sim.instrumentation import SetpointLog, StallLog
 from offboard_py.simtime import SimClock
 
 LATE_S = 0.3  # how long the datagram waits in the socket before the link reads it

@@ -210,7 +210,7 @@ def test_a_silent_stream_holds_on_while_its_node_waits_for_the_cpu_but_not_for_e
 
 
 def test_a_process_waits_for_the_cpu_while_a_thread_of_it_is_runnable():
-    from offboard_py.stream_watch import waits_for_cpu
+    from offboard_py.ros_participant import waits_for_cpu
     assert waits_for_cpu(os.getpid()), 'this process, running this test'
     sleeper = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(30)'])
     try:

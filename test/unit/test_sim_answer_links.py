@@ -88,10 +88,10 @@ def test_a_mission_download_ping_and_timesync_are_answered_on_their_link(autopil
     assert ap.mission_manager.partner_link is ap.gcs_link
 
 
-def test_the_setpoint_hook_is_given_the_setpoints_link(autopilot):
+def test_the_setpoint_probe_is_given_the_setpoints_link(autopilot):
     ap, clock, sent = autopilot
     got = []
-    ap.on_setpoint_accepted.append(lambda msg, link: got.append((msg.get_type(), link)))
+    ap.setpoint_probes.append(lambda msg, link: got.append((msg.get_type(), link)))
     receive(ap, ap.gcs_link, ap.mav.set_position_target_local_ned_encode(
         0, ap.system_id, 1, mavlink.MAV_FRAME_LOCAL_NED, 0b0000111111111000, 0.0, 0.0, -2.0,
         0, 0, 0, 0, 0, 0, 0, 0))

@@ -11,14 +11,14 @@ import pytest
 
 from offboard_py.dialect import mavlink
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.mavlink import messages
 from offboard_py.sim.main import parser
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.reference import load, px4_rate_hz
 
 M = mavlink
-FRAME = LocalFrame(47.397742, 8.545594, 488.0)
+ORIGIN = GeoOrigin(47.397742, 8.545594, 488.0)
 DT = 0.01
 GPS_OK = M.MAV_SYS_STATUS_SENSOR_GPS
 CAPTURES = load('px4-sitl-boot-timeline.json')['captures']
@@ -37,12 +37,12 @@ def px4_changes(message):
 
 
 def booted_flight():
-    return Flight(ParamStore({}), FRAME, 0.0, ready_delay_s=parser().parse_args([]).ready_delay)
+    return Flight(ParamStore({}), ORIGIN, 0.0, ready_delay_s=parser().parse_args([]).ready_delay)
 
 
 def our_changes(message, fields, seconds=8.0):
     """[(values, boot s)] of each change of `message` in a booting simulated PX4, built every step."""
-    f, b = booted_flight(), messages.TelemetryBuilder(M.MAVLink(None, srcSystem=1), FRAME, ParamStore({}))
+    f, b = booted_flight(), messages.TelemetryBuilder(M.MAVLink(None, srcSystem=1), ORIGIN, ParamStore({}))
     out, t = [], 0.0
     for _ in range(int(round(seconds / DT))):
         t = round(t + DT, 6)
@@ -103,7 +103,7 @@ def test_a_client_that_arms_when_gps_and_home_say_ok_is_accepted_and_one_before_
     recorded = load('px4-sitl-boot-health.json')['real_px4_s_after_first_message']
     assert recorded['first HOME_POSITION'] < recorded['SYS_STATUS GPS healthy'] < recorded[
         'first arm accepted (client armed at once)'], 'the recorded order'
-    f, b = booted_flight(), messages.TelemetryBuilder(M.MAVLink(None, srcSystem=1), FRAME, ParamStore({}))
+    f, b = booted_flight(), messages.TelemetryBuilder(M.MAVLink(None, srcSystem=1), ORIGIN, ParamStore({}))
     t, refused = 0.0, 0
     while True:
         t = round(t + DT, 6)

@@ -15,7 +15,7 @@ import pytest
 
 from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.reference import load
 
@@ -72,7 +72,7 @@ def setpoint(mask, position=(0.0, 0.0, 0.0), velocity=(0.0, 0.0, 0.0), yaw=0.0):
 
 def fly_the_users_square(seed):
     """The recorded node on the simulated PX4: (square rows (t, x, y, z ENU), land request s, disarmed s)."""
-    of = OffboardFlight(ParamStore({'MAV_SYS_ID': seed}), LocalFrame(47.397742, 8.545594, 488.0))
+    of = OffboardFlight(ParamStore({'MAV_SYS_ID': seed}), GeoOrigin(47.397742, 8.545594, 488.0))
     f, rows = of.flight, []
 
     def record():

@@ -15,7 +15,7 @@ from offboard_py.sim import failsafe as fs
 from offboard_py.sim import failsafe_framework as ff
 from offboard_py.sim import offboard_input
 from offboard_py.sim.battery_simulator import WARNING_CRITICAL, WARNING_EMERGENCY, WARNING_LOW
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.mavlink import mission_manager
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
@@ -25,7 +25,7 @@ from offboard_flight import OffboardFlight
 
 M = mavlink
 REFERENCE = os.path.join(os.path.dirname(__file__), '..', '..', 'reference')
-FRAME = LocalFrame(47.397742, 8.545594, 488.0)
+ORIGIN = GeoOrigin(47.397742, 8.545594, 488.0)
 NAN = float('nan')
 TOLERANCE = 0.25  # of the recorded time
 STEP_S = 0.02  # a step of the flight here (OffboardFlight)
@@ -49,7 +49,7 @@ class Vehicle(OffboardFlight):
     """A flight that records what it says and how its status changes, with the time of each."""
 
     def __init__(self, rc=False, **params):
-        super().__init__(ParamStore(params), FRAME, rc=rc)
+        super().__init__(ParamStore(params), ORIGIN, rc=rc)
         self.texts = []     # (t, StatusText)
         self.changes = []   # (t, Status) whenever a watched field changed
         self.joystick = False  # a ground station's MANUAL_CONTROL every step
@@ -88,7 +88,7 @@ class Vehicle(OffboardFlight):
 
     def takeoff_and_hold(self, hold_s):
         assert self.flight.request_arming(True, False, self.t) == M.MAV_RESULT_ACCEPTED
-        assert self.flight.takeoff(NAN, FRAME.alt0, self.t) == M.MAV_RESULT_ACCEPTED
+        assert self.flight.takeoff(NAN, ORIGIN.alt0, self.t) == M.MAV_RESULT_ACCEPTED
         self.until(lambda st: st.nav_mode == 'AUTO.LOITER' and st.user_mode == 'AUTO.LOITER', 20.0, 'AUTO.LOITER')
         self.run(hold_s)
 
@@ -308,7 +308,7 @@ def test_manual_control_loss_only_where_it_was_in_use():
 
 def circle_fence(radius_m, inclusion=True):
     command = M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION if inclusion else M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
-    return [mission_manager.Item(M.MAV_FRAME_GLOBAL, command, 1, radius_m, 0, 0, 0, FRAME.lat0, FRAME.lon0, 0.0)]
+    return [mission_manager.Item(M.MAV_FRAME_GLOBAL, command, 1, radius_m, 0, 0, 0, ORIGIN.lat0, ORIGIN.lon0, 0.0)]
 
 
 def test_geofence_breach_holds_where_it_was_seen():

@@ -10,7 +10,7 @@ import pytest
 
 from offboard_py.dialect import mavlink
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.reference import px4_param
 
@@ -21,7 +21,7 @@ HOME = (47.397742, 8.545594, 488.0)
 
 
 def airborne():
-    f = Flight(ParamStore({}), LocalFrame(*HOME), 0.0, ready_delay_s=0.0)
+    f = Flight(ParamStore({}), GeoOrigin(*HOME), 0.0, ready_delay_s=0.0)
     assert f.request_arming(True, False, 0.0) == M.MAV_RESULT_ACCEPTED
     assert f.takeoff(NAN, HOME[2], 0.0) == M.MAV_RESULT_ACCEPTED
     return f, fly(f, 0.0, 12.0)

@@ -9,7 +9,7 @@ from offboard_py.dialect import ARM_DISARM_FORCE_MAGIC, mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import offboard_input
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamRejected, ParamStore
 from offboard_py.testing.mavros_typemasks import IGNORE_ALL_VECTORS, IGNORE_VELOCITY, POSITION_AND_YAW, VELOCITY_ONLY
 from offboard_py.testing.reference import load, px4_param
@@ -22,7 +22,7 @@ ACCEPTED, TEMPORARILY_REJECTED, DENIED = M.MAV_RESULT_ACCEPTED, M.MAV_RESULT_TEM
 
 def make(ready_delay_s=0.0, rc=False, **overrides):
     params = ParamStore({k: v for k, v in overrides.items()})
-    return Flight(params, LocalFrame(47.0, 8.0, 500.0), 0.0, ready_delay_s=ready_delay_s, rc=rc)
+    return Flight(params, GeoOrigin(47.0, 8.0, 500.0), 0.0, ready_delay_s=ready_delay_s, rc=rc)
 
 
 def fly(f, t0, seconds, sp=None, dt=0.01):
@@ -61,7 +61,7 @@ def test_body_ned_drops_a_vector_with_any_axis_ignored():
     assert local.velocity[:2] == (0.5, 0.0) and math.isnan(local.velocity[2])
 
 
-GLOBAL_ORIGIN = LocalFrame(47.0, 8.0, 500.0)
+GLOBAL_ORIGIN = GeoOrigin(47.0, 8.0, 500.0)
 
 
 def global_setpoint(frame, alt, mask=POS_YAW, home_amsl=500.4, origin=GLOBAL_ORIGIN):
@@ -270,7 +270,7 @@ def test_params_encoding_and_ranges():
 
 
 def test_geo_round_trip():
-    f = LocalFrame(47.397742, 8.545594, 488.0)
+    f = GeoOrigin(47.397742, 8.545594, 488.0)
     lat, lon, alt = f.to_global(100.0, -50.0, -10.0)
     assert f.to_local(lat, lon, alt) == pytest.approx((100.0, -50.0, -10.0))
     assert alt == pytest.approx(498.0)
@@ -347,7 +347,7 @@ def test_mission_items_reached_in_order():
 def test_current_mode_carries_the_standard_mode():
     from offboard_py.sim.mavlink.messages import TelemetryBuilder
     f = make()
-    builder = TelemetryBuilder(M.MAVLink(None), LocalFrame(47.0, 8.0, 500.0), f.params)
+    builder = TelemetryBuilder(M.MAVLink(None), GeoOrigin(47.0, 8.0, 500.0), f.params)
     # PX4's numbers on the wire (reference/px4-sitl-measured.md, "Turn 3 recordings", section 3: MISSION 6,
     # LAND 7, TAKEOFF 8; pymavlink 2.4.49's development enum numbers these one higher)
     for mode, standard, custom in (('AUTO.MISSION', 6, 0x04040000), ('AUTO.LAND', 7, 0x06040000),

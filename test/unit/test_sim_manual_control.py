@@ -13,12 +13,12 @@ from offboard_py.dialect import mavlink
 from offboard_py.sim import events as ev
 from offboard_py.sim import manual_control as mc
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.reference import load, px4_param
 
 M = mavlink
-FRAME = LocalFrame(47.397742, 8.545594, 488.0)
+ORIGIN = GeoOrigin(47.397742, 8.545594, 488.0)
 DT = 0.01
 REFERENCE = load('px4-sitl-manual-control.json')
 MAVLINK_SEEN, ULOG = REFERENCE['mavlink'], REFERENCE['ulog']
@@ -43,7 +43,7 @@ class ManualFlight:
     MANUAL_CONTROL's x, y, z, r); every step's status, setpoint, takeoff state and truth recorded."""
 
     def __init__(self, sticks=(0, 0, 500, 0), rc=False, **params):
-        self.flight = Flight(ParamStore(params), FRAME, 0.0, ready_delay_s=0.0, rc=rc, ideal=True)
+        self.flight = Flight(ParamStore(params), ORIGIN, 0.0, ready_delay_s=0.0, rc=rc, ideal=True)
         self.t = 0.0
         self.sticks = sticks
         self.next_s = 0.0
@@ -345,7 +345,7 @@ def test_no_manual_control_flies_the_navigators_setpoint(mode, presence):
     f = ManualFlight(sticks=None, rc=True)
     f.run(1.0)
     assert f.arm() == M.MAV_RESULT_ACCEPTED
-    assert f.flight.takeoff(NAN, FRAME.alt0, f.t) == M.MAV_RESULT_ACCEPTED
+    assert f.flight.takeoff(NAN, ORIGIN.alt0, f.t) == M.MAV_RESULT_ACCEPTED
     while f.flight.status(f.t).nav_mode != 'AUTO.LOITER':
         f.step()
         assert f.t < 30.0, 'no takeoff: %s' % (f.flight.status(f.t),)

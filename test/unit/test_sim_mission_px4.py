@@ -18,7 +18,7 @@ import pytest
 from offboard_py.dialect import mavlink as M
 from offboard_py.sim import events as ev
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.mavlink.mission_manager import Item
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.reference import px4_param
@@ -56,11 +56,11 @@ def mean(values):
     return sum(values) / len(values)
 
 
-def mission_items(ref, frame):
+def mission_items(ref, origin):
     """The recorded mission as stored items, in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT (degrees, metres)."""
     items = []
     for it in ref['mission']['items']:
-        lat, lon, _ = frame.to_global(it['north_m'], it['east_m'], 0.0)
+        lat, lon, _ = origin.to_global(it['north_m'], it['east_m'], 0.0)
         items.append(Item(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, getattr(M, it['command']), 1, 0.0, 0.0, 0.0, NAN,
                           lat, lon, it['relative_alt_m']))
     return items
@@ -72,9 +72,9 @@ def fly_recorded_mission(seconds=110.0, **params):
     texts and the flight."""
     ref = recorded()
     home = ref['home']
-    frame = LocalFrame(home['lat'], home['lon'], home['alt_m'])
-    f = Flight(ParamStore(params), frame, 0.0, ready_delay_s=0.0)
-    f.load_mission(mission_items(ref, frame))
+    origin = GeoOrigin(home['lat'], home['lon'], home['alt_m'])
+    f = Flight(ParamStore(params), origin, 0.0, ready_delay_s=0.0)
+    f.load_mission(mission_items(ref, origin))
     assert f.request_mode('AUTO.MISSION', 0.0) == M.MAV_RESULT_ACCEPTED
     assert f.request_arming(True, False, 0.0) == M.MAV_RESULT_ACCEPTED
     reached, samples, texts, landed_s = {}, [], [], None
@@ -180,8 +180,8 @@ def test_a_mission_started_in_the_air_above_the_items_altitude_takes_no_takeoff(
     straight (no TAKEOFF state, no text)."""
     ref = recorded()
     home = ref['home']
-    frame = LocalFrame(home['lat'], home['lon'], home['alt_m'])
-    f = Flight(ParamStore({}), frame, 0.0, ready_delay_s=0.0)
+    origin = GeoOrigin(home['lat'], home['lon'], home['alt_m'])
+    f = Flight(ParamStore({}), origin, 0.0, ready_delay_s=0.0)
     f.request_arming(True, False, 0.0)
     f.takeoff(home['alt_m'] + 20.0, home['alt_m'], 0.0)
     t = 0.0
@@ -189,7 +189,7 @@ def test_a_mission_started_in_the_air_above_the_items_altitude_takes_no_takeoff(
         t += DT
         f.step(t, DT)
     f.take_events()
-    f.load_mission(mission_items(ref, frame))
+    f.load_mission(mission_items(ref, origin))
     assert f.request_mode('AUTO.MISSION', t) == M.MAV_RESULT_ACCEPTED
     states, texts = set(), []
     for _ in range(int(5.0 / DT)):
@@ -209,8 +209,8 @@ HOME = (47.397742, 8.545594, 488.0)
 def gcs_mission_flight(items, **params):
     """A flight with `items` ((command, north_m, east_m, relative_alt_m, param1, param2) or, for MAV_FRAME_MISSION
     items, (command, param1, param2)) loaded as a ground station uploads them, in AUTO.MISSION and armed at t=0."""
-    frame = LocalFrame(*HOME)
-    f = Flight(ParamStore(params), frame, 0.0, ready_delay_s=0.0)
+    origin = GeoOrigin(*HOME)
+    f = Flight(ParamStore(params), origin, 0.0, ready_delay_s=0.0)
     stored = []
     for it in items:
         if len(it) == 3:
@@ -218,7 +218,7 @@ def gcs_mission_flight(items, **params):
             stored.append(Item(M.MAV_FRAME_MISSION, command, 1, p1, p2, 0.0, 0.0, 0.0, 0.0, 0.0))
         else:
             command, north, east, alt, p1, p2 = it
-            lat, lon, _ = frame.to_global(north, east, 0.0)
+            lat, lon, _ = origin.to_global(north, east, 0.0)
             stored.append(Item(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command, 1, p1, p2, 0.0, NAN, lat, lon, alt))
     f.load_mission(stored)
     assert f.request_mode('AUTO.MISSION', 0.0) == M.MAV_RESULT_ACCEPTED
@@ -342,8 +342,8 @@ def test_a_mission_uploaded_while_flying_is_flown_from_its_first_item():
     r = Recorder(gcs_mission_flight([(WP, 0, 0, 6, 0, 0), (WP, 40, 0, 6, 0, 0)]))
     r.run(until=lambda r: 0 in r.reached)
     r.run(seconds=2.0)
-    frame = LocalFrame(*HOME)
-    lat, lon, _ = frame.to_global(0.0, -25.0, 0.0)
+    origin = GeoOrigin(*HOME)
+    lat, lon, _ = origin.to_global(0.0, -25.0, 0.0)
     r.reached.clear()
     r.current.clear()
     r.f.load_mission([Item(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, WP, 1, 0.0, 0.0, 0.0, NAN, lat, lon, 6.0)])
@@ -372,8 +372,8 @@ def test_mission_item_reached_is_said_again_with_mission_current():
     ap.link.send_many = send_many
     ap.link.send = lambda msg: send_many([msg])
     try:
-        frame = LocalFrame(*HOME)
-        lat, lon, _ = frame.to_global(5.0, 0.0, 0.0)
+        origin = GeoOrigin(*HOME)
+        lat, lon, _ = origin.to_global(5.0, 0.0, 0.0)
         ap.flight.load_mission([Item(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, WP, 1, 0.0, 0.0, 0.0, NAN, lat, lon, 3.0)])
         assert ap.flight.request_mode('AUTO.MISSION', ap.t()) == M.MAV_RESULT_ACCEPTED
         assert ap.flight.request_arming(True, False, ap.t()) == M.MAV_RESULT_ACCEPTED

@@ -175,7 +175,7 @@ def test_flight_termination_denied_disarmed_then_terminates_armed_for_good(rig):
 def test_set_home_here_or_at_a_given_position(rig):
     """DO_SET_HOME (COM_HOME_EN 1): param1 1 the current position; param1 0 the latitude, longitude
     and altitude given, DENIED unless all three are finite."""
-    lat0, lon0, alt0 = rig.ap.frame.lat0, rig.ap.frame.lon0, rig.ap.frame.alt0
+    lat0, lon0, alt0 = rig.ap.origin.lat0, rig.ap.origin.lon0, rig.ap.origin.alt0
     assert command_result(rig, mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat0, lon0, float('nan')) == \
         mavlink.MAV_RESULT_DENIED
     assert command_result(rig, mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat0 + 1e-4, lon0, alt0 + 10) == ACCEPTED
@@ -189,7 +189,7 @@ def test_change_altitude_loiters_and_climbs_to_it_when_armed(rig):
     """DO_CHANGE_ALTITUDE: AUTO.LOITER (Commander::handle_command) and, armed, a reposition to param1
     AMSL above where the vehicle is (navigator_main.cpp)."""
     assert arm(rig, 1.0) == [ACCEPTED]
-    target_amsl = rig.ap.frame.alt0 + 5.0
+    target_amsl = rig.ap.origin.alt0 + 5.0
     assert command_result(rig, mavlink.MAV_CMD_DO_CHANGE_ALTITUDE, target_amsl) == ACCEPTED
     rig.run(8.0)
     st = rig.ap.status()

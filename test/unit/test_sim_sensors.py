@@ -16,14 +16,14 @@ import pytest
 from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input
 from offboard_py.sim.mavlink import messages
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamRejected, ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
 from offboard_flight import DT, OffboardFlight
 
 M = mavlink
-FRAME = LocalFrame(47.397742, 8.545594, 488.0)
+ORIGIN = GeoOrigin(47.397742, 8.545594, 488.0)
 TOLERANCE = 0.1
 STEP_S = DT  # ATTITUDE's resolution here: one simulator step
 
@@ -73,8 +73,8 @@ class Run(OffboardFlight):
     """A Flight on a simulated clock with a 20 Hz offboard companion, and what telemetry builds."""
 
     def __init__(self, ideal=False, seed=None):
-        super().__init__(ParamStore({}), FRAME, ideal=ideal, seed=seed)
-        self.builder = messages.TelemetryBuilder(M.MAVLink(None, srcSystem=1), FRAME, self.flight.params)
+        super().__init__(ParamStore({}), ORIGIN, ideal=ideal, seed=seed)
+        self.builder = messages.TelemetryBuilder(M.MAVLink(None, srcSystem=1), ORIGIN, self.flight.params)
 
     def messages(self, seconds, name):
         out = []

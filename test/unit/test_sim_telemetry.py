@@ -11,27 +11,27 @@ import pytest
 
 from offboard_py import dialect
 from offboard_py.dialect import mavlink
-from offboard_py.sim import offboard_input
+from offboard_py.sim import flight_math, offboard_input
 from offboard_py.sim.mavlink import link_stats, messages, sensor_messages
 from offboard_py.sim.mavlink import streams as sim_streams
 from offboard_py.sim.battery_simulator import BatterySimulator
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
 M = mavlink
 ACCEPTED = M.MAV_RESULT_ACCEPTED
-FRAME = LocalFrame(47.0, 8.0, 500.0)
+ORIGIN = GeoOrigin(47.0, 8.0, 500.0)
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 
 
 def make(ready_delay_s=0.0, rc=False, **overrides):
-    return Flight(ParamStore(dict(overrides)), FRAME, 0.0, ready_delay_s=ready_delay_s, rc=rc)
+    return Flight(ParamStore(dict(overrides)), ORIGIN, 0.0, ready_delay_s=ready_delay_s, rc=rc)
 
 
 def builder(flight):
-    return messages.TelemetryBuilder(M.MAVLink(None, srcSystem=3), FRAME, flight.params)
+    return messages.TelemetryBuilder(M.MAVLink(None, srcSystem=3), ORIGIN, flight.params)
 
 
 def fly(f, t0, seconds, sp=None, dt=0.01):
@@ -349,7 +349,7 @@ def test_hover_telemetry_is_consistent():
 
 def test_body_velocity_of_odometry():
     yawed_90 = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))  # nose east
-    assert messages.to_body(yawed_90, (0.0, 1.0, 0.0)) == pytest.approx((1.0, 0.0, 0.0), abs=1e-9)
+    assert flight_math.to_body(yawed_90, (0.0, 1.0, 0.0)) == pytest.approx((1.0, 0.0, 0.0), abs=1e-9)
 
 
 def test_disarmed_on_the_ground():

@@ -6,7 +6,7 @@ what HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE say around the disarm."""
 
 from offboard_py.dialect import mavlink
 from offboard_py.sim import offboard_input
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.param_store import ParamStore
 from offboard_py.testing.mavros_typemasks import POSITION_AND_YAW
 
@@ -25,7 +25,7 @@ class Tutorial(OffboardFlight):
     """The tutorial's node against a Flight: setpoints at 20 Hz, OFFBOARD, arm."""
 
     def __init__(self):
-        super().__init__(ParamStore(), LocalFrame(47.397742, 8.545594, 488.0))
+        super().__init__(ParamStore(), GeoOrigin(47.397742, 8.545594, 488.0))
         self.setpoint = offboard_input.offboard_setpoint(M.MAV_FRAME_LOCAL_NED, POSITION_AND_YAW, (0.0, 0.0, -2.0),
                                                          (0, 0, 0), (0, 0, 0), 0.0, 0.0, 0.0)
 
@@ -138,7 +138,7 @@ def test_the_failsafe_return_sends_the_gimbal_commands_and_the_landing_its_idle_
     take, neutral, release, idle = [e.params for _, e in commands]
     assert take == (1.0, 1.0, -1.0, -1.0, 0.0, 0.0, 0.0) and release == (-3.0, -3.0, -1.0, -1.0, 0.0, 0.0, 0.0)
     assert all(p != p for p in neutral[:4]) and neutral[4:] == (2.0, 0.0, 0.0)
-    home_amsl = tut.flight.navigator.mission.frame.alt0 - tut.flight.home[2]
+    home_amsl = tut.flight.navigator.mission.origin.alt0 - tut.flight.home[2]
     assert idle[:3] == (0.0, 2.0, 80.0) and idle[3] != idle[3] and idle[4:6] == (0.0, 0.0)
     assert abs(idle[6] - home_amsl) < 1e-6, 'param7: the home altitude AMSL (HOME_POSITION.altitude)'
     assert 0.0 <= commands[3][0] - landed_s <= 0.15

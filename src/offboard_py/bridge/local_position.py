@@ -16,10 +16,6 @@ from tf2_msgs.msg import TFMessage
 from offboard_py import frames
 
 
-def _inverse(q):
-    return (-q[0], -q[1], -q[2], q[3])
-
-
 class LocalPosition:
     def __init__(self, bridge):
         self.bridge = bridge
@@ -61,7 +57,7 @@ class LocalPosition:
             self.velocity_pub.publish(twist)
         body = None
         if self.velocity_body_pub.get_num_connections() or self.odom_pub.get_num_connections():
-            body = frames.rotate(_inverse(attitude.orientation_enu), velocity)
+            body = frames.rotate(frames.quaternion_conjugate(attitude.orientation_enu), velocity)
         if self.velocity_body_pub.get_num_connections():
             twist = TwistStamped()
             twist.header.stamp, twist.header.frame_id = stamp, self.tf_child_frame_id

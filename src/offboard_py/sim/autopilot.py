@@ -26,7 +26,7 @@ from offboard_py.sim import loop
 from offboard_py.sim import param_store as sim_params
 from offboard_py.sim.commander import READY_S
 from offboard_py.sim.flight import Flight
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
 from offboard_py.sim.logger import Logger
 from offboard_py.sim.mavlink import mission_manager, streams as sim_streams
 from offboard_py.sim.mavlink.command_sender import CommandSender
@@ -63,8 +63,8 @@ class SimulatedPx4:
         self.params = sim_params.ParamStore(system_id=self.system_id)
         for text in param_overrides:
             self.params.parse_override(text)
-        self.frame = LocalFrame(*home)
-        self.flight = Flight(self.params, self.frame, self.t(now), ready_delay_s=ready_delay_s, rc=rc)
+        self.origin = GeoOrigin(*home)
+        self.flight = Flight(self.params, self.origin, self.t(now), ready_delay_s=ready_delay_s, rc=rc)
         local_port = sitl_ports.fcu_port(instance) if local_port is None else local_port
         remote_port = sitl_ports.bridge_port(instance) if remote_port is None else remote_port
         # Both links keep the first sender they hear from, as PX4's UDP links do (mavlink_link._lock_partner)
@@ -91,14 +91,16 @@ class SimulatedPx4:
             self.streams[self.gcs_link] = sim_streams.Streams(self.t(now), sim_streams.GCS_RATES_HZ)
         for streams in self.streams.values():  # HOME_POSITION as soon as home is set, then at its rate
             streams.next_s['HOME_POSITION'] = self.t(now) + self.flight.home_first_s
-        self.telemetry = TelemetryBuilder(self.mav, self.frame, self.params)
+        self.telemetry = TelemetryBuilder(self.mav, self.origin, self.params)
         self.link_counters = {link: LinkCounters(link.stats, self.t(now)) for link in self.links}
         for link, counters in self.link_counters.items():
             link.on_frames(counters.on_frame)  # LINK_NODE_STATUS.messages_lost, counted as PX4 counts it
         self.command_sender = CommandSender(clock, self.mav, self.system_id, self.links)
         self.texts = StatustextQueue(self.links, self.telemetry.mav)
         self.origin_sent = False  # GPS_GLOBAL_ORIGIN's one message on every link (ORIGIN_FIRST_SENT_S)
-        self.on_setpoint_accepted = []  # hooks: f(msg, link) for every accepted setpoint (the benchmark's log)
+        # the instrumentation seam (sim.instrumentation, for ./run bench): f(msg, link) for every accepted
+        # setpoint; empty unless the benchmark measures (PX4 has nothing of the kind)
+        self.setpoint_probes = []
         self.counters = {'setpoints_accepted': 0, 'setpoints_rejected': 0, 'ignored_other_system': 0,
                          'not_allowed': 0}
         # Signing as PX4 does it with a key on its SD card: outgoing signed, incoming must be.
@@ -120,7 +122,7 @@ class SimulatedPx4:
         self.logger = None
         self.receiver = Receiver(self)
         if self.log_root:
-            self.logger = Logger(self.log_root, self.params, self.flight, self.frame, self.system_id, self.t(now),
+            self.logger = Logger(self.log_root, self.params, self.flight, self.origin, self.system_id, self.t(now),
                                  self.text)
             self.logger.boot(self.t(now))
         self.running = False

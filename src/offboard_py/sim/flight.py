@@ -91,13 +91,13 @@ class Status(NamedTuple):
 
 
 class Flight:
-    def __init__(self, params, frame, now_s, ready_delay_s=READY_S, rc=False, ideal=False, seed=None):
+    def __init__(self, params, origin, now_s, ready_delay_s=READY_S, rc=False, ideal=False, seed=None):
         self.params = params
-        self.frame = frame
+        self.origin = origin
         seed = params['MAV_SYS_ID'] if seed is None else seed
         self.vehicle = VehicleModel(params, estimator=Estimator(seed, ideal=ideal))
         self.commander = Commander(params, now_s, ready_delay_s=ready_delay_s, rc=rc)
-        self.navigator = Navigator(params, frame, self.vehicle)
+        self.navigator = Navigator(params, origin, self.vehicle)
         self.offboard_sp = None
         self.manual_control = ManualControl(params)  # the manual modes' flight tasks (sim.manual_control)
         self.battery = BatterySimulator(params, now_s)
@@ -246,8 +246,8 @@ class Flight:
         self.battery.step(now_s, c.armed)
         c.battery_warning = self.battery.warning
         if self.geofence.due(now_s):
-            c.geofence_result = self.geofence.check(now_s, self.frame.to_global(*v.estimate[0]),
-                                                    self.frame.to_global(*self.home), c.armed,
+            c.geofence_result = self.geofence.check(now_s, self.origin.to_global(*v.estimate[0]),
+                                                    self.origin.to_global(*self.home), c.armed,
                                                     c.nav_mode == 'AUTO.LOITER')
             if self.geofence.holding_since_s == now_s:  # navigator_main.cpp: hold where the breach was seen
                 self.navigator.set_reposition(tuple(v.estimate[0]), None, float('nan'), c.armed)

@@ -1,5 +1,8 @@
 """Small numbers and helpers shared by the vehicle model's parts (sim.vehicle, sim.position_control), and PX4's
-mathlib (lib/mathlib/math/Functions.hpp, AlphaFilter, SlewRate) for the manual flight tasks (sim.manual_control)."""
+mathlib (lib/mathlib/math/Functions.hpp, AlphaFilter, SlewRate) for the manual flight tasks (sim.manual_control).
+
+The simulator's quaternions are all here, in one order: (w, x, y, z), MAVLink's and PX4's, NED world and FRD
+body. frames.py's are ROS's (x, y, z, w); the two meet only through frames.wxyz_to_xyzw."""
 
 import math
 
@@ -58,6 +61,13 @@ def wrap_pi(angle):
     return math.atan2(math.sin(angle), math.cos(angle))
 
 
+def rotate_by_yaw(x, y, yaw):
+    """A horizontal vector turned by `yaw` (rad) about the down axis: (forward, right) in the heading
+    frame -> (north, east)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return c * x - s * y, s * x + c * y
+
+
 def alpha_filter(state, sample, dt, time_constant):
     """PX4's AlphaFilter: one update with alpha = dt / (dt + time constant)."""
     denominator = time_constant + dt
@@ -69,3 +79,48 @@ def slew(state, target, rate, dt):
     """PX4's SlewRate: `state` moved towards `target` by at most rate * dt."""
     step = rate * dt
     return state + clamp(target - state, -step, step)
+
+
+# -- quaternions (w, x, y, z), NED/FRD ---------------------------------------------------------------
+
+
+def quaternion_product(a, b):
+    """The Hamilton product a * b of two quaternions (w, x, y, z)."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+def to_body(q, v):
+    """Rotate a NED vector into the FRD body frame of attitude q (w, x, y, z)."""
+    w, x, y, z = q
+    return ((1 - 2 * (y * y + z * z)) * v[0] + 2 * (x * y + w * z) * v[1] + 2 * (x * z - w * y) * v[2],
+            2 * (x * y - w * z) * v[0] + (1 - 2 * (x * x + z * z)) * v[1] + 2 * (y * z + w * x) * v[2],
+            2 * (x * z + w * y) * v[0] + 2 * (y * z - w * x) * v[1] + (1 - 2 * (x * x + y * y)) * v[2])
+
+
+def quaternion_from_thrust(acc_ned, yaw):
+    """Attitude (w, x, y, z), NED/FRD, that points the thrust to give `acc_ned` with heading yaw."""
+    fx, fy, fz = acc_ned[0], acc_ned[1], acc_ned[2] - GRAVITY
+    norm = math.sqrt(fx * fx + fy * fy + fz * fz) or 1.0
+    zb = (-fx / norm, -fy / norm, -fz / norm)          # body z (down) opposite the thrust
+    yc = (-math.sin(yaw), math.cos(yaw), 0.0)
+    xb = (yc[1] * zb[2] - yc[2] * zb[1], yc[2] * zb[0] - yc[0] * zb[2], yc[0] * zb[1] - yc[1] * zb[0])
+    n = math.sqrt(xb[0] * xb[0] + xb[1] * xb[1] + xb[2] * xb[2]) or 1.0
+    xb = (xb[0] / n, xb[1] / n, xb[2] / n)
+    yb = (zb[1] * xb[2] - zb[2] * xb[1], zb[2] * xb[0] - zb[0] * xb[2], zb[0] * xb[1] - zb[1] * xb[0])
+    # rotation matrix columns xb, yb, zb -> quaternion
+    m00, m11, m22 = xb[0], yb[1], zb[2]
+    trace = m00 + m11 + m22
+    if trace > 0.0:
+        s = math.sqrt(trace + 1.0) * 2.0
+        return (0.25 * s, (yb[2] - zb[1]) / s, (zb[0] - xb[2]) / s, (xb[1] - yb[0]) / s)
+    if m00 > m11 and m00 > m22:
+        s = math.sqrt(1.0 + m00 - m11 - m22) * 2.0
+        return ((yb[2] - zb[1]) / s, 0.25 * s, (yb[0] + xb[1]) / s, (zb[0] + xb[2]) / s)
+    if m11 > m22:
+        s = math.sqrt(1.0 + m11 - m00 - m22) * 2.0
+        return ((zb[0] - xb[2]) / s, (yb[0] + xb[1]) / s, 0.25 * s, (zb[1] + yb[2]) / s)
+    s = math.sqrt(1.0 + m22 - m00 - m11) * 2.0
+    return ((xb[1] - yb[0]) / s, (zb[0] + xb[2]) / s, (zb[1] + yb[2]) / s, 0.25 * s)

@@ -9,7 +9,9 @@ import math
 EARTH_RADIUS_M = 6371000.0
 
 
-class LocalFrame:
+class GeoOrigin:
+    """The estimator's origin: the WGS 84 point (degrees, m AMSL) at local NED (0, 0, 0), and the conversions."""
+
     def __init__(self, lat_deg, lon_deg, alt_m):
         self.lat0, self.lon0, self.alt0 = lat_deg, lon_deg, alt_m
         self._m_per_deg_lat = math.radians(1.0) * EARTH_RADIUS_M

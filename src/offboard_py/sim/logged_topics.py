@@ -106,12 +106,12 @@ def vehicle_command_ack(now_s, command, result, target):
 
 
 class FlightTopics:
-    """The topics of `flight` (sim.flight.Flight) in `frame` (sim.geo.LocalFrame) for system `system_id`:
+    """The topics of `flight` (sim.flight.Flight) around `origin` (sim.geo.GeoOrigin) for system `system_id`:
     `track()` every cycle, then `publishers[topic name](now_s, status)`, the topic's values when it is
     published this cycle, or None."""
 
-    def __init__(self, flight, frame, params, system_id):
-        self.flight, self.frame, self.params, self.system_id = flight, frame, params, system_id
+    def __init__(self, flight, origin, params, system_id):
+        self.flight, self.origin, self.params, self.system_id = flight, origin, params, system_id
         self.armed, self.armed_us, self.takeoff_us = False, 0, 0
         self.arming_reason = self.disarming_reason = 0
         self.nav_state, self.nav_state_us = None, 0
@@ -177,7 +177,7 @@ class FlightTopics:
             'vxy_max': INF, 'vz_max': INF, 'hagl_min': INF, 'hagl_max_z': INF, 'hagl_max_xy': INF,
         }
         if self._origin_set(now_s):
-            f = self.frame
+            f = self.origin
             values.update(ref_timestamp=us(ORIGIN_SET_S), ref_lat=f.lat0, ref_lon=f.lon0, ref_alt=f.alt0,
                           xy_global=True, z_global=True)
         else:
@@ -188,7 +188,7 @@ class FlightTopics:
         if not self._origin_set(now_s):
             return None
         t = us(now_s)
-        lat, lon, alt = self.frame.to_global(*st.position)
+        lat, lon, alt = self.origin.to_global(*st.position)
         valid = self.flight.commander.position_valid
         return {'timestamp': t, 'timestamp_sample': t, 'lat': lat, 'lon': lon, 'alt': alt, 'alt_ellipsoid': alt,
                 'lat_lon_valid': valid, 'alt_valid': valid, 'terrain_alt': NAN}
@@ -232,7 +232,7 @@ class FlightTopics:
         if not self.home_pending:
             return None
         self.home_pending = False
-        lat, lon, alt = self.frame.to_global(*st.home)
+        lat, lon, alt = self.origin.to_global(*st.home)
         x, y, z = st.home
         return {'timestamp': us(self.home_set_s), 'lat': lat, 'lon': lon, 'alt': alt, 'x': x, 'y': y, 'z': z,
                 'yaw': st.yaw, 'valid_alt': True, 'valid_hpos': True, 'valid_lpos': True,

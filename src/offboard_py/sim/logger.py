@@ -178,19 +178,19 @@ class _Subscription:
 
 
 class Logger:
-    """The logger of the simulated PX4 whose flight stack is `flight` (sim.flight.Flight) in `frame`, with
-    `params` (sim.param_store.ParamStore) and `system_id`, booted at now_s (seconds since boot, usually 0):
-    ULog files under log_root; `say(severity, text)` puts a text on the links. The autopilot calls `boot(now_s)`
-    once, then `step(now_s, status)` every cycle, `on_events()` with what the flight stack said, `on_text()`
-    with each text it says, `on_vehicle_command()` and `on_vehicle_command_ack()` as the receiver takes and
-    answers commands, and `close()` at shutdown. `wall_clock` gives UTC (Unix seconds) for the names and the
-    boot time."""
+    """The logger of the simulated PX4 whose flight stack is `flight` (sim.flight.Flight) around `origin`
+    (sim.geo.GeoOrigin), with `params` (sim.param_store.ParamStore) and `system_id`, booted at now_s (seconds
+    since boot, usually 0): ULog files under log_root; `say(severity, text)` puts a text on the links. The
+    autopilot calls `boot(now_s)` once, then `step(now_s, status)` every cycle, `on_events()` with what the
+    flight stack said, `on_text()` with each text it says, `on_vehicle_command()` and `on_vehicle_command_ack()`
+    as the receiver takes and answers commands, and `close()` at shutdown. `wall_clock` gives UTC (Unix
+    seconds) for the names and the boot time."""
 
-    def __init__(self, log_root, params, flight, frame, system_id, now_s, say, wall_clock=time.time):
+    def __init__(self, log_root, params, flight, origin, system_id, now_s, say, wall_clock=time.time):
         self.log_root, self.params, self.flight, self.say = log_root, params, flight, say
         self.wall_clock = wall_clock
         self.boot_utc_us = us(wall_clock() - now_s)
-        self.topics = logged_topics.FlightTopics(flight, frame, params, system_id)
+        self.topics = logged_topics.FlightTopics(flight, origin, params, system_id)
         self.subscriptions = [_Subscription(topic, msg_id, interval)
                               for msg_id, (topic, interval) in enumerate(logged_topics.SUBSCRIPTIONS)]
         self.by_name = {sub.topic.name: sub for sub in self.subscriptions}

@@ -9,7 +9,6 @@ import logging
 import os
 import signal
 import sys
-import time
 
 from offboard_py.clock_board import BoardError
 from offboard_py.dialect import check_pymavlink_version
@@ -18,7 +17,8 @@ from offboard_py.simtime import SimClock, speed_option
 from offboard_py.sim.autopilot import DEFAULT_HOME, SimulatedPx4
 from offboard_py.sim.commander import READY_S
 from offboard_py.sim.loop import run_together
-from offboard_py.sim.geo import LocalFrame
+from offboard_py.sim.geo import GeoOrigin
+from offboard_py.sim.instrumentation import BenchLogs
 from offboard_py.sim.param_store import ParamRejected
 
 
@@ -31,60 +31,6 @@ def default_log_dir(environ=os.environ):
     unset: ~/.ros), as px4_sih.py runs real PX4 in $ROS_HOME/px4_sih/<instance>."""
     ros_home = environ.get('ROS_HOME') or os.path.join(os.path.expanduser('~'), '.ros')
     return os.path.join(ros_home, 'sim_px4', INSTANCE_FIELD, 'log')
-
-
-class _BenchLog:
-    """Rows for the benchmark, kept in memory and written at exit (to `path`, or the one given then).
-    Times are on ROS's clock: Unix time in real time, the simulated clock (ns) at any other speed."""
-
-    row_format = ''
-
-    def __init__(self, path=None, clock=None):
-        self.path, self.rows = path, []
-        self.simulated = None if clock is None or clock.real_time else clock
-
-    def clock_ns(self, wall_ns):
-        """Now on the log's clock, given the wall's now (Unix ns)."""
-        return wall_ns if self.simulated is None else int(self.simulated.now() * 1e9)
-
-    def write(self, path=None):
-        with open(path or self.path, 'w') as out:
-            out.write(''.join(self.row_format % row for row in self.rows))
-
-
-class SetpointLog(_BenchLog):
-    """For the benchmark: each accepted setpoint's arrival (ns), time_boot_ms, and when the simulator read
-    it (ns), so the receive path only appends a row. The arrival is the kernel's receive time of its
-    datagram (MavlinkLink.stamp_arrivals): the stream as it reached the FCU, which is what PX4's receive
-    thread, blocked on the socket, sees of it. The read time is when this process got to it, later by
-    however long a busy simulator took; the benchmark reports that lag on its own. Where the kernel gives
-    no stamp, the arrival is the read time."""
-
-    row_format = '%d %d %d\n'
-
-    def record(self, msg, arrival_ns=None):
-        """msg: the setpoint; arrival_ns: its datagram's kernel receive time (Unix ns) or None."""
-        now_ns = time.time_ns()
-        if arrival_ns is None:
-            arrival_ns = now_ns
-        read_ns = self.clock_ns(now_ns)
-        speed = 1.0 if self.simulated is None else self.simulated.speed
-        self.rows.append((read_ns - int((now_ns - arrival_ns) * speed), msg.time_boot_ms, read_ns))
-
-
-class StallLog(_BenchLog):
-    """For the benchmark: each time the loop fell behind its clock and skipped steps (loop.STALL_S), when
-    (ns), how far behind (ms of the simulator's clock) and how many steps of each vehicle, written beside
-    the setpoint log (stalls-<instance>.txt, empty when none): a vehicle whose steps were skipped did not
-    send PX4's stream meanwhile, whatever the setpoints' arrival says."""
-
-    row_format = '%d %.1f %d\n'
-
-    def __init__(self, clock=None):
-        super().__init__(None, clock)  # the path is given at write(): the same stalls for each vehicle
-
-    def record(self, behind_s, skipped):
-        self.rows.append((self.clock_ns(time.time_ns()), behind_s * 1e3, skipped))
 
 
 def _home(text):
@@ -248,7 +194,7 @@ def main(argv=None):
             instance = args.instance + k
             if instance > 99:
                 raise ValueError('--vehicles %d from instance %d: instances end at 99' % (args.vehicles, args.instance))
-            home = LocalFrame(*args.home).to_global(args.spawn[1] + k * VEHICLE_SPACING_M, args.spawn[0], 0.0)
+            home = GeoOrigin(*args.home).to_global(args.spawn[1] + k * VEHICLE_SPACING_M, args.spawn[0], 0.0)
             sims.append(SimulatedPx4(
                 instance=instance, home=home, bind_host=args.bind, local_port=args.local_port,
                 remote_port=args.remote_port, param_overrides=args.params, ready_delay_s=args.ready_delay,
@@ -267,19 +213,10 @@ def main(argv=None):
         if len(sims) < args.vehicles:
             for sim in sims:
                 sim.close_links()
-    setpoint_logs = []
-    stall_log = StallLog(clock) if args.setpoint_log else None
-    for instance, sim in enumerate(sims, args.instance):
+    for sim in sims:
         if args.ideal:
             sim.flight.set_ideal()
-        if args.setpoint_log:
-            setpoint_log = SetpointLog(os.path.join(args.setpoint_log, 'setpoints-%d.txt' % instance), clock)
-            if not all([link.stamp_arrivals() for link in sim.links]):
-                logging.warning('this kernel does not stamp datagrams (SO_TIMESTAMPNS): the setpoint log takes '
-                                'arrivals as the simulator read them')
-            sim.on_setpoint_accepted.append(
-                lambda msg, link, setpoint_log=setpoint_log: setpoint_log.record(msg, link.arrival_ns))
-            setpoint_logs.append(setpoint_log)
+    bench_logs = BenchLogs(sims, args.setpoint_log, args.instance, clock) if args.setpoint_log else None
 
     def stop(_signum, _frame):
         for sim in sims:
@@ -287,14 +224,11 @@ def main(argv=None):
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
     try:
-        run_together(sims, on_stall=None if stall_log is None else stall_log.record)
+        run_together(sims, on_stall=None if bench_logs is None else bench_logs.on_stall)
     finally:
         clock.leave()
         for sim in sims:
             sim.close()
-        for setpoint_log in setpoint_logs:
-            setpoint_log.write()
-        if stall_log is not None:  # the loop's stalls are every vehicle's of this process
-            for instance in range(args.instance, args.instance + len(sims)):
-                stall_log.write(os.path.join(args.setpoint_log, 'stalls-%d.txt' % instance))
+        if bench_logs is not None:
+            bench_logs.write()
     return 0

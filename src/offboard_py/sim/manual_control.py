@@ -41,7 +41,8 @@ import math
 from typing import NamedTuple
 
 from offboard_py.sim import vehicle as vm
-from offboard_py.sim.flight_math import GRAVITY, NAN, alpha_filter, clamp, expo_deadzone, interpolate, is_set, wrap_pi
+from offboard_py.sim.flight_math import (GRAVITY, NAN, alpha_filter, clamp, expo_deadzone, interpolate, is_set,
+                                         quaternion_product, wrap_pi)
 from offboard_py.sim.position_control import TAKEOFF_TRIGGER_M
 from offboard_py.sim.sticks import (StickAccelerationXY, StickYaw, limit_unit_length, maximum_tilt_acceleration,
                                     rotate_into_heading)
@@ -189,7 +190,7 @@ class Stabilized:
         q_rp = (math.cos(angle / 2.0), rx * s, ry * s, 0.0)
         heading = self.yaw_setpoint if is_set(self.yaw_setpoint) else vehicle.yaw
         q_yaw = (math.cos(heading / 2.0), 0.0, 0.0, math.sin(heading / 2.0))
-        attitude = _quaternion_product(q_yaw, q_rp)
+        attitude = quaternion_product(q_yaw, q_rp)
         # the vehicle turns its heading by MC_YAW_P times the error: a turning stick asks for its rate so
         yaw = heading if is_set(self.yaw_setpoint) else wrap_pi(vehicle.yaw + yaw_rate / vm.YAW_P)
         return vm.setpoint(attitude=attitude, thrust=throttle_curve(p, sticks.throttle), yaw=yaw)
@@ -212,13 +213,6 @@ def throttle_curve(params, throttle):
     if throttle <= 0.0:
         return interpolate(throttle, -1.0, 0.0, low, hover)
     return interpolate(throttle, 0.0, 1.0, hover, high)
-
-
-def _quaternion_product(a, b):
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
 
 
 TASKS = {'POSCTL': ManualAcceleration, 'ALTCTL': ManualAltitude, 'STABILIZED': Stabilized, 'MANUAL': Stabilized}

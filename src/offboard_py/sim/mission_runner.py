@@ -42,8 +42,8 @@ class MissionRunner:
     NAV_LOITER_UNLIM and NAV_LAND; NAV_RETURN_TO_LAUNCH goes to the commander (`commands`); other items
     (DO_*) are passed over."""
 
-    def __init__(self, params, frame):
-        self.params, self.frame = params, frame
+    def __init__(self, params, origin):
+        self.params, self.origin = params, origin
         self.flyer = Flyer(params)
         self.home = (0.0, 0.0, 0.0)
         self.items = []
@@ -97,9 +97,9 @@ class MissionRunner:
         if it.x == 0.0 and it.y == 0.0:  # no position given: here
             north, east = vehicle.position[0], vehicle.position[1]
         else:
-            north, east, _ = self.frame.to_local(it.x, it.y, self.frame.alt0)
+            north, east, _ = self.origin.to_local(it.x, it.y, self.origin.alt0)
         if it.frame in ABSOLUTE_FRAMES:
-            down = self.frame.alt0 - it.z
+            down = self.origin.alt0 - it.z
         else:  # relative to home (terrain frames are treated as relative: flat ground)
             down = self.home[2] - it.z
         return (north, east, down)

@@ -11,8 +11,8 @@ PX4's mavlink_receiver.cpp where they are silent):
   (measured on PX4 SITL) and refused when it would make an acceleration a force;
 - a message that controls no position, velocity or acceleration is refused, and so is
   an infinite number anywhere.
-SET_POSITION_TARGET_GLOBAL_INT: the position (all three axes or none) projected around the local
-frame's origin, its altitude by frame as PX4 computes it; velocity and acceleration taken as NED.
+SET_POSITION_TARGET_GLOBAL_INT: the position (all three axes or none) projected around the estimator's
+origin (sim.geo.GeoOrigin), its altitude by frame as PX4 computes it; velocity and acceleration taken as NED.
 SET_ATTITUDE_TARGET: an attitude (its quaternion, normalised), or body rates (the attitude ignored,
 roll and pitch rates given), and a collective thrust, flown without the position controller.
 Pure: it never sees a socket or a clock. Whether OFFBOARD flies it is the commander's rule.
@@ -23,6 +23,7 @@ import math
 from offboard_py import frames
 from offboard_py.dialect import mavlink
 from offboard_py.sim import vehicle as vm
+from offboard_py.sim.flight_math import rotate_by_yaw
 
 _AXIS_IGNORE_BITS = (mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE,
                      mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE, mavlink.POSITION_TARGET_TYPEMASK_VX_IGNORE,
@@ -53,14 +54,12 @@ def offboard_setpoint(frame, type_mask, position, velocity, acceleration, yaw, y
     nan = vm.NAN
     used = [float(v) if not type_mask & bit else nan for bit, v in zip(_AXIS_IGNORE_BITS, values)]
     if frame == mavlink.MAV_FRAME_BODY_NED:
-        c, s = math.cos(vehicle_yaw), math.sin(vehicle_yaw)
         used[0:3] = [nan, nan, nan]
         for k in (3, 6):
-            x, y = used[k], used[k + 1]
             if not all(v == v for v in used[k:k + 3]):
                 used[k:k + 3] = [nan, nan, nan]  # PX4: one axis ignored drops the vector
             else:
-                used[k], used[k + 1] = c * x - s * y, s * x + c * y
+                used[k], used[k + 1] = rotate_by_yaw(used[k], used[k + 1], vehicle_yaw)
     if not any(v == v for v in used):
         raise SetpointRejected('no position, velocity or acceleration in setpoint (type_mask 0x%x)' % type_mask)
     yaw_sp = float(yaw) if not type_mask & mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE and yaw == yaw else nan
@@ -83,10 +82,10 @@ _POSITION_IGNORED = (mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITIO
                      | mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE)
 
 
-def global_setpoint(frame, type_mask, lat_int, lon_int, alt, velocity, acceleration, yaw, yaw_rate, local_frame,
+def global_setpoint(frame, type_mask, lat_int, lon_int, alt, velocity, acceleration, yaw, yaw_rate, origin,
                     home_amsl):
-    """Decode a SET_POSITION_TARGET_GLOBAL_INT into a vehicle Setpoint (local NED). `local_frame` is the
-    estimator's origin (sim.geo.LocalFrame), `home_amsl` home's altitude (m AMSL), None while either is
+    """Decode a SET_POSITION_TARGET_GLOBAL_INT into a vehicle Setpoint (local NED). `origin` is the
+    estimator's origin (sim.geo.GeoOrigin), `home_amsl` home's altitude (m AMSL), None while either is
     not known, when PX4 drops a message with a position. Raises SetpointRejected.
 
     As PX4's receiver: the position is used only with none of its axes ignored; the altitude is
@@ -99,16 +98,16 @@ def global_setpoint(frame, type_mask, lat_int, lon_int, alt, velocity, accelerat
         raise SetpointRejected('coordinate frame %d is not supported (MAV_FRAME_GLOBAL_INT %d or '
                                'MAV_FRAME_GLOBAL_RELATIVE_ALT_INT %d)'
                                % (frame, mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT))
-    elif local_frame is None or home_amsl is None:
+    elif origin is None or home_amsl is None:
         raise SetpointRejected('no global position yet: a global setpoint needs the estimator\'s origin and home')
     elif not math.isfinite(alt):
         raise SetpointRejected('altitude %r is not a number' % alt)
     else:
-        north, east, _ = local_frame.to_local(lat_int / 1e7, lon_int / 1e7, local_frame.alt0)
+        north, east, _ = origin.to_local(lat_int / 1e7, lon_int / 1e7, origin.alt0)
         if frame == mavlink.MAV_FRAME_GLOBAL_INT:
-            down = local_frame.alt0 - alt
+            down = origin.alt0 - alt
         else:
-            down = (home_amsl - alt) - local_frame.alt0
+            down = (home_amsl - alt) - origin.alt0
         position = (north, east, down)
     # the rest is read as a LOCAL_NED setpoint's, with the position in place
     if position[0] != position[0]:
@@ -118,11 +117,11 @@ def global_setpoint(frame, type_mask, lat_int, lon_int, alt, velocity, accelerat
                              0.0)
 
 
-def from_global_message(msg, local_frame, home_amsl):
+def from_global_message(msg, origin, home_amsl):
     """global_setpoint() of a pymavlink SET_POSITION_TARGET_GLOBAL_INT."""
     return global_setpoint(msg.coordinate_frame, msg.type_mask, msg.lat_int, msg.lon_int, msg.alt,
                            (msg.vx, msg.vy, msg.vz), (msg.afx, msg.afy, msg.afz), msg.yaw, msg.yaw_rate,
-                           local_frame, home_amsl)
+                           origin, home_amsl)
 
 
 def attitude_setpoint(type_mask, q_wxyz, thrust, body_rates=(0.0, 0.0, 0.0)):
@@ -154,7 +153,7 @@ def attitude_setpoint(type_mask, q_wxyz, thrust, body_rates=(0.0, 0.0, 0.0)):
     if norm < 1e-6:
         raise SetpointRejected('attitude quaternion is all zero: not a rotation')
     q = tuple(c / norm for c in q_wxyz)
-    return vm.setpoint(yaw=frames.euler(q)[2], attitude=q, thrust=float(thrust))
+    return vm.setpoint(yaw=frames.quaternion_yaw(frames.wxyz_to_xyzw(*q)), attitude=q, thrust=float(thrust))
 
 
 def from_attitude_message(msg):

@@ -5,17 +5,15 @@ acceleration with PX4's drag, brake boost and jerk limit, the position locked on
 
 import math
 
-from offboard_py.sim.flight_math import (FLT_EPSILON, GRAVITY, NAN, alpha_filter, clamp, interpolate, is_set, sign,
-                                         slew, sqrt_linear)
+from offboard_py.sim.flight_math import (FLT_EPSILON, GRAVITY, NAN, alpha_filter, clamp, interpolate, is_set,
+                                         rotate_by_yaw, sign, slew, sqrt_linear)
 
 BRAKE_BOOST_TAU_S = 0.8     # StickAccelerationXY::calculateDrag's brake boost filter
 
 
 def rotate_into_heading(x, y, yaw, yaw_setpoint):
     """Sticks::rotateIntoHeadingFrameXY: (forward, right) -> (north, east) by the locked heading, else the yaw."""
-    heading = yaw_setpoint if is_set(yaw_setpoint) else yaw
-    c, s = math.cos(heading), math.sin(heading)
-    return c * x - s * y, s * x + c * y
+    return rotate_by_yaw(x, y, yaw_setpoint if is_set(yaw_setpoint) else yaw)
 
 
 def limit_unit_length(x, y):

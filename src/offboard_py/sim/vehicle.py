@@ -32,7 +32,7 @@ import math
 from collections import deque, namedtuple
 
 from offboard_py.sim.estimator import Estimator, ground_start
-from offboard_py.sim.flight_math import GRAVITY, NAN, clamp, is_set
+from offboard_py.sim.flight_math import GRAVITY, NAN, clamp, is_set, quaternion_from_thrust, wrap_pi
 from offboard_py.sim.land_detector import LandDetector
 from offboard_py.sim.position_control import PositionControl
 from offboard_py.sim.sensors import SihImu
@@ -65,32 +65,6 @@ def setpoint(position=(NAN, NAN, NAN), velocity=(NAN, NAN, NAN), acceleration=(N
 def hold(position, yaw):
     """Hover at `position` facing `yaw`."""
     return setpoint(position=position, yaw=yaw)
-
-
-def quaternion_from_thrust(acc_ned, yaw):
-    """Attitude (w, x, y, z), NED/FRD, that points the thrust to give `acc_ned` with heading yaw."""
-    fx, fy, fz = acc_ned[0], acc_ned[1], acc_ned[2] - GRAVITY
-    norm = math.sqrt(fx * fx + fy * fy + fz * fz) or 1.0
-    zb = (-fx / norm, -fy / norm, -fz / norm)          # body z (down) opposite the thrust
-    yc = (-math.sin(yaw), math.cos(yaw), 0.0)
-    xb = (yc[1] * zb[2] - yc[2] * zb[1], yc[2] * zb[0] - yc[0] * zb[2], yc[0] * zb[1] - yc[1] * zb[0])
-    n = math.sqrt(xb[0] * xb[0] + xb[1] * xb[1] + xb[2] * xb[2]) or 1.0
-    xb = (xb[0] / n, xb[1] / n, xb[2] / n)
-    yb = (zb[1] * xb[2] - zb[2] * xb[1], zb[2] * xb[0] - zb[0] * xb[2], zb[0] * xb[1] - zb[1] * xb[0])
-    # rotation matrix columns xb, yb, zb -> quaternion
-    m00, m11, m22 = xb[0], yb[1], zb[2]
-    trace = m00 + m11 + m22
-    if trace > 0.0:
-        s = math.sqrt(trace + 1.0) * 2.0
-        return (0.25 * s, (yb[2] - zb[1]) / s, (zb[0] - xb[2]) / s, (xb[1] - yb[0]) / s)
-    if m00 > m11 and m00 > m22:
-        s = math.sqrt(1.0 + m00 - m11 - m22) * 2.0
-        return ((yb[2] - zb[1]) / s, 0.25 * s, (yb[0] + xb[1]) / s, (zb[0] + xb[2]) / s)
-    if m11 > m22:
-        s = math.sqrt(1.0 + m11 - m00 - m22) * 2.0
-        return ((zb[0] - xb[2]) / s, (yb[0] + xb[1]) / s, 0.25 * s, (zb[1] + yb[2]) / s)
-    s = math.sqrt(1.0 + m22 - m00 - m11) * 2.0
-    return ((xb[1] - yb[0]) / s, (zb[0] + xb[2]) / s, (zb[1] + yb[2]) / s, 0.25 * s)
 
 
 class VehicleModel:
@@ -182,7 +156,7 @@ class VehicleModel:
                     thrust_sp = [0.0, 0.0, -p['MPC_THR_MIN']]
                     control.integral = [0.0, 0.0, 0.0]
                 if is_set(sp.yaw):
-                    yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
+                    yaw_rate = YAW_P * wrap_pi(sp.yaw - self.yaw)
                 else:
                     yaw_rate = sp.yaw_rate if is_set(sp.yaw_rate) else 0.0
                 self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
@@ -208,7 +182,7 @@ class VehicleModel:
                                - drag * velocity[i] + gust[i])
             velocity[i] += acceleration[i] * dt
             position[i] += velocity[i] * dt
-        self.yaw = math.atan2(math.sin(self.yaw + self.yaw_rate * dt), math.cos(self.yaw + self.yaw_rate * dt))
+        self.yaw = wrap_pi(self.yaw + self.yaw_rate * dt)
         # at rest with the motors off: the quiet estimate and IMU recorded on the ground (sections 2
         # and 7 were disarmed); with the motors on the controller flies the full noise, as in the air
         on_ground = self._ground(now_s)
@@ -247,7 +221,7 @@ class VehicleModel:
         if sp.attitude is None:
             yaw_rate = sp.rates[2]
         else:
-            yaw_rate = YAW_P * math.atan2(math.sin(sp.yaw - self.yaw), math.cos(sp.yaw - self.yaw))
+            yaw_rate = YAW_P * wrap_pi(sp.yaw - self.yaw)
         self.yaw_rate = clamp(yaw_rate, -YAW_RATE_MAX, YAW_RATE_MAX)
         self.setpoint = sp
         return thrust_sp

@@ -530,4 +530,4 @@ class RosoutRecorder:
 
 def yaw_of(q):
     """Yaw (rad) of a geometry_msgs/Quaternion."""
-    return frames.quaternion_yaw((q.x, q.y, q.z, q.w))
+    return frames.quaternion_yaw(_quaternion(q))

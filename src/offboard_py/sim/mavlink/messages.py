@@ -14,10 +14,10 @@ import math
 
 from offboard_py import frames, px4_modes, wire
 from offboard_py.dialect import mavlink
+from offboard_py.sim.flight_math import quaternion_from_thrust, to_body
 from offboard_py.sim.mavlink.sensor_messages import UINT16_UNKNOWN, SensorMessages
 from offboard_py.sim.mavlink.system_messages import UID_BASE, SystemMessages
 from offboard_py.sim.rtl import rtl_time_estimate
-from offboard_py.sim.vehicle import quaternion_from_thrust
 
 # SYS_STATUS as PX4 SITL (SIH quadrotor) reports it: present 0x0300402F, enabled 0x0301402F,
 # health 0x1320C83F with PREARM_CHECK while the arming checks pass
@@ -47,14 +47,6 @@ for _i, _var in zip(_DIAGONAL, (0.01, 0.01, 0.02, 1e-4, 1e-4, 1e-3)):
 for _i, _var in zip(_DIAGONAL, (0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-4)):
     VELOCITY_COVARIANCE[_i] = _var
 INT16_UNKNOWN = 0x7FFF
-
-
-def to_body(q, v):
-    """Rotate a NED vector into the FRD body frame of attitude q (w, x, y, z)."""
-    w, x, y, z = q
-    return ((1 - 2 * (y * y + z * z)) * v[0] + 2 * (x * y + w * z) * v[1] + 2 * (x * z - w * y) * v[2],
-            2 * (x * y - w * z) * v[0] + (1 - 2 * (x * x + z * z)) * v[1] + 2 * (y * z + w * x) * v[2],
-            2 * (x * z + w * y) * v[0] + 2 * (y * z - w * x) * v[1] + (1 - 2 * (x * x + y * y)) * v[2])
 
 
 def position_target_type_mask(position, velocity, acceleration, yaw, yaw_rate):
@@ -126,10 +118,10 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
     """Builds the autopilot's messages with `mav` (a pymavlink codec) from a flight Status, as wire.Outgoing
     messages (pymavlink's message of the same arguments on demand)."""
 
-    def __init__(self, mav, frame, params, boot_s=0.0):
+    def __init__(self, mav, origin, params, boot_s=0.0):
         # the streams' messages are wire.Outgoing: framed by the links from their arguments, as pymavlink
         # would pack them, without a pymavlink message object each
-        self.mav, self.frame, self.params = wire.Encoder(mav), frame, params
+        self.mav, self.origin, self.params = wire.Encoder(mav), origin, params
         self.boot_s = boot_s
         self.uid = UID_BASE + mav.srcSystem
         self.ping_seq = 0
@@ -165,12 +157,12 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
     def _global(self, st):
         """(lat_e7, lon_e7, alt_amsl_mm) of the vehicle."""
         def compute(s):
-            lat, lon, alt = self.frame.to_global(*s.position)
+            lat, lon, alt = self.origin.to_global(*s.position)
             return int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000))
         return self._shared(st, 'global', compute)
 
     def _euler(self, st):
-        return self._shared(st, 'euler', lambda s: frames.euler(s.attitude))
+        return self._shared(st, 'euler', lambda s: frames.euler(frames.wxyz_to_xyzw(*s.attitude)))
 
     def _course(self, st):
         """(ground speed m/s, course over ground in rad or None when not moving)."""
@@ -232,15 +224,15 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
             *(int(round(c * 100)) for c in st.velocity), heading)
 
     def _amsl(self, st):
-        """Altitude AMSL (m) of the estimate: the local frame's origin is at the frame's altitude."""
-        return self.frame.alt0 - st.position[2]
+        """Altitude AMSL (m) of the estimate: local NED's z is 0 at the origin's altitude."""
+        return self.origin.alt0 - st.position[2]
 
     def _altitude(self, st, now_s):
         # PX4's ALTITUDE: monotonic and amsl from the estimate, local = -z, relative to home;
         # flat ground at home's altitude: terrain is home's AMSL altitude, the clearance the height.
         # Every field is a number, as PX4 SITL's (never NaN).
         amsl = self._amsl(st)
-        home_amsl = self.frame.alt0 - st.home[2]
+        home_amsl = self.origin.alt0 - st.home[2]
         return self.mav.altitude_encode(self.time_usec(now_s), amsl, amsl, -st.position[2], st.height, home_amsl,
                                         max(st.height, 0.0))
 
@@ -259,7 +251,7 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
             return None
         # home is where the vehicle was armed (PX4 sets it again at arming), in both frames; time_usec is
         # the boot time it was set at, as PX4's (2448000 and then 3792000 in the recorded conversation)
-        lat, lon, alt = self.frame.to_global(*st.home)
+        lat, lon, alt = self.origin.to_global(*st.home)
         return self.mav.home_position_encode(int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
                                              *st.home, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
                                              int(round(st.home_set_s * 1e6)))
@@ -278,7 +270,7 @@ class TelemetryBuilder(SensorMessages, SystemMessages):
         if not (st.armed and st.nav_mode.startswith('AUTO.')):
             return None
         p = tuple(sp if sp == sp else now for sp, now in zip(st.position_setpoint, st.position))
-        lat, lon, alt = self.frame.to_global(*p)
+        lat, lon, alt = self.origin.to_global(*p)
         v, a = st.velocity_setpoint, st.acceleration_setpoint
         return self.mav.position_target_global_int_encode(
             self.time_boot_ms(now_s), mavlink.MAV_FRAME_GLOBAL_INT, 0, int(round(lat * 1e7)), int(round(lon * 1e7)),

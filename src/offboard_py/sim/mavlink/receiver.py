@@ -50,7 +50,7 @@ class Receiver:
 
     def __init__(self, px4):
         self.px4 = px4
-        self.flight, self.frame, self.params, self.mav = px4.flight, px4.frame, px4.params, px4.mav
+        self.flight, self.origin, self.params, self.mav = px4.flight, px4.origin, px4.params, px4.mav
         self.system_id, self.counters, self.links = px4.system_id, px4.counters, px4.links
         self.streams, self.telemetry, self.link_counters = px4.streams, px4.telemetry, px4.link_counters
         self.mission_manager, self.parameters = px4.mission_manager, px4.parameters
@@ -160,7 +160,7 @@ class Receiver:
             log.warning('FOLLOW_TARGET from system %d ignored: a field is not a number (%s)', msg.get_srcSystem(),
                         values)
             return
-        position = self.frame.to_local(msg.lat * 1e-7, msg.lon * 1e-7, msg.alt)
+        position = self.origin.to_local(msg.lat * 1e-7, msg.lon * 1e-7, msg.alt)
         self.flight.on_follow_target(position, tuple(msg.vel), self.px4.t())
 
     def _on_set_mode(self, msg, link):
@@ -296,16 +296,16 @@ class Receiver:
             else:
                 now = self.px4.t()
                 known = self.flight.commander.ready(now)
-                home_amsl = self.frame.alt0 - self.flight.home[2] if known else None
-                sp = offboard_input.from_global_message(msg, self.frame if known else None, home_amsl)
+                home_amsl = self.origin.alt0 - self.flight.home[2] if known else None
+                sp = offboard_input.from_global_message(msg, self.origin if known else None, home_amsl)
         except offboard_input.SetpointRejected as err:
             self.counters['setpoints_rejected'] += 1
             if self.counters['setpoints_rejected'] in (1, 10, 100, 1000):
                 log.warning('%s rejected (%d setpoints so far): %s', kind, self.counters['setpoints_rejected'], err)
             return
         self.counters['setpoints_accepted'] += 1
-        for hook in self.px4.on_setpoint_accepted:
-            hook(msg, link)
+        for probe in self.px4.setpoint_probes:
+            probe(msg, link)
         self.flight.on_offboard_setpoint(sp, self.px4.t())
 
     def _on_setup_signing(self, msg, _link):

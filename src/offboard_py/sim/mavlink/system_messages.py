@@ -54,7 +54,7 @@ class SystemMessages:
             mavlink.MAV_ODID_TIME_ACC_0_1_SECOND)
 
     def _open_drone_id_system(self, st, now_s):
-        f = self.frame
+        f = self.origin
         return self.mav.open_drone_id_system_encode(
             0, 0, [0] * 20, mavlink.MAV_ODID_OPERATOR_LOCATION_TYPE_TAKEOFF,
             mavlink.MAV_ODID_CLASSIFICATION_TYPE_UNDECLARED, int(round(f.lat0 * 1e7)), int(round(f.lon0 * 1e7)),
@@ -62,12 +62,12 @@ class SystemMessages:
             f.alt0, int(time.time()) - UNIX_2019_S)
 
     def _gps_global_origin(self, st, now_s):
-        """The estimator's origin (the local frame's), as PX4's GPS_GLOBAL_ORIGIN stream fills it:
+        """The estimator's origin (sim.geo.GeoOrigin), as PX4's GPS_GLOBAL_ORIGIN stream fills it:
         degE7, mm AMSL, time_usec the boot time the origin was set; None before it is."""
         if now_s < ORIGIN_SET_S:
             return None
-        return self.mav.gps_global_origin_encode(int(round(self.frame.lat0 * 1e7)), int(round(self.frame.lon0 * 1e7)),
-                                                 int(round(self.frame.alt0 * 1000)), int(ORIGIN_SET_S * 1e6))
+        return self.mav.gps_global_origin_encode(int(round(self.origin.lat0 * 1e7)), int(round(self.origin.lon0 * 1e7)),
+                                                 int(round(self.origin.alt0 * 1000)), int(ORIGIN_SET_S * 1e6))
 
     def _autopilot_version(self, st, now_s):
         return self.mav.autopilot_version_encode(CAPABILITIES, PX4_VERSION, PX4_VERSION, PX4_OS_SW_VERSION,

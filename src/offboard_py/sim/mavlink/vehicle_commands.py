@@ -47,7 +47,7 @@ class VehicleCommands:
     """The command table {MAV_CMD: handler} of `px4`'s flight stack (sim.autopilot.SimulatedPx4)."""
 
     def __init__(self, px4):
-        self.flight, self.frame, self.params = px4.flight, px4.frame, px4.params
+        self.flight, self.origin, self.params = px4.flight, px4.origin, px4.params
         self.table = {
             mavlink.MAV_CMD_DO_SET_MODE: self._set_mode,
             mavlink.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
@@ -81,7 +81,7 @@ class VehicleCommands:
                                           now)
 
     def _takeoff(self, msg, now):
-        return self.flight.takeoff(command_position(msg)[2], self.frame.alt0, now)
+        return self.flight.takeoff(command_position(msg)[2], self.origin.alt0, now)
 
     def _reposition(self, msg, now):
         """DO_REPOSITION (MAVSDK's goto_location, QGroundControl's "go to location"): param2 must ask
@@ -95,9 +95,9 @@ class VehicleCommands:
         v = self.flight.vehicle
         north, east, down = v.position
         if math.isfinite(lat) and math.isfinite(lon):
-            north, east, _ = self.frame.to_local(lat, lon, self.frame.alt0)
+            north, east, _ = self.origin.to_local(lat, lon, self.origin.alt0)
         if math.isfinite(alt):
-            down = self.frame.alt0 - alt
+            down = self.origin.alt0 - alt
         speed = msg.param1 if math.isfinite(msg.param1) and msg.param1 > 0 else None
         return self.flight.reposition((north, east, down), speed, msg.param4, now)
 
@@ -107,7 +107,7 @@ class VehicleCommands:
         (navigator_main.cpp)."""
         north, east, down = self.flight.vehicle.position
         if math.isfinite(msg.param1):
-            down = self.frame.alt0 - msg.param1
+            down = self.origin.alt0 - msg.param1
         return self.flight.reposition((north, east, down), None, math.nan, now)
 
     def _set_standard_mode(self, msg, now):
@@ -132,7 +132,7 @@ class VehicleCommands:
         lat, lon, alt = command_position(msg)
         if not all(map(math.isfinite, (lat, lon, alt))):
             return DENIED
-        return self.flight.set_home(self.frame.to_local(lat, lon, alt), now)
+        return self.flight.set_home(self.origin.to_local(lat, lon, alt), now)
 
     def _mission_start(self, msg, now):
         first = int(msg.param1) if math.isfinite(msg.param1) and msg.param1 >= 0 else 0

@@ -50,9 +50,9 @@ class Navigator:
     """The setpoint of the AUTO modes (and the hold of modes without one) for the mode flying now:
     one NavigatorMode per AUTO mode, the hold for the others."""
 
-    def __init__(self, params, frame, vehicle):
+    def __init__(self, params, origin, vehicle):
         self.params, self.vehicle = params, vehicle
-        self.mission = MissionRunner(params, frame)
+        self.mission = MissionRunner(params, origin)
         self.flyer = Flyer(params)
         self.events = []
         self.home = (0.0, 0.0, 0.0)
@@ -131,7 +131,7 @@ class Navigator:
             return
         self._idle_sent = True
         p = self.params
-        home_amsl = self.mission.frame.alt0 - self.home[2]
+        home_amsl = self.mission.origin.alt0 - self.home[2]
         self.events.append(ev.VehicleCommand(0, (0.0, p['NAV_ACC_RAD'], p['NAV_LOITER_RAD'], vm.NAN, 0.0, 0.0,
                                                  home_amsl), True))
 
