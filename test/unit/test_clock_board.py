@@ -3,6 +3,7 @@ participant keeps up, held at the slowest participant + the lead, going on from 
 stale and the ended left out, the holds counted with who held them."""
 
 import os
+import select
 import subprocess
 import sys
 import time
@@ -12,6 +13,8 @@ import pytest
 from offboard_py import clock_board
 from offboard_py.clock_board import Board, BoardError
 from offboard_py.simtime import SimClock
+
+SLEEPER_START_S = 30.0  # wall seconds a sleeper process may take to start, and then to be seen asleep
 
 
 class Wall:
@@ -212,13 +215,21 @@ def test_a_silent_stream_holds_on_while_its_node_waits_for_the_cpu_but_not_for_e
 def test_a_process_waits_for_the_cpu_while_a_thread_of_it_is_runnable():
     from offboard_py.ros_participant import waits_for_cpu
     assert waits_for_cpu(os.getpid()), 'this process, running this test'
-    sleeper = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(30)'])
+    sleeper = subprocess.Popen([sys.executable, '-c', 'import time; print("asleep", flush=True); time.sleep(60)'],
+                               stdout=subprocess.PIPE)
     try:
-        time.sleep(0.5)
+        # on a busy machine the interpreter's start takes seconds: wait for it to say it sleeps, then for
+        # the scheduler to see it so (it is runnable until it is in the sleep)
+        ready, _, _ = select.select([sleeper.stdout], [], [], SLEEPER_START_S)
+        assert ready and sleeper.stdout.readline() == b'asleep\n', 'the sleeper did not start in %g s' % SLEEPER_START_S
+        deadline = time.monotonic() + SLEEPER_START_S
+        while waits_for_cpu(sleeper.pid) and time.monotonic() < deadline:
+            time.sleep(0.01)
         assert not waits_for_cpu(sleeper.pid), 'a process whose threads all sleep'
     finally:
         sleeper.kill()
         sleeper.wait()
+        sleeper.stdout.close()
     assert not waits_for_cpu(sleeper.pid), 'a process that is gone'
 
 
