@@ -12,7 +12,7 @@ vehicle stays in OFFBOARD and armed throughout. Nothing here is our stack's own:
 unchanged on real mavros and real PX4.
 
 Why the pass and not the 1 m: the vehicle overshoots each corner and passes the next one at
-about 1 m (on our simulated PX4 0.64-1.08 m at corner 3, in ten runs idle and loaded). A pass
+about 1 m (on our simulated PX4 0.64-1.11 m at corner 3 in sixteen runs, idle and loaded). A pass
 just outside 1 m closes in slowly, about 6.5 s more: PX4's own leg 4 took 10.0 s in one run and
 16.5 s in the other. Which of the two a run gets turns on centimetres, so the 1 m time would
 test chance, where the pass tests the flight.
