@@ -79,9 +79,10 @@ class PositionSquareTest(OffboardTestCase):
     def fly_to(self, vehicle, corner, timeout_s):
         """Set corner as the setpoint, wait until within RADIUS_M of it (in 3 D, as PX4's test), and
         return the pass: the time to the stamp of the first pose within PASS_RADIUS_M, the closest the
-        poses came within PASS_WINDOW_S after it (as far as they have come), and when the corner was set. mavros stamps a pose
-        with the FCU's own time of it (LOCAL_POSITION_NED.time_boot_ms, synchronised), so a pose
-        delivered late by a busy machine does not lengthen the leg; the wait allows for that lateness."""
+        poses came within PASS_WINDOW_S after it (as far as they have come), and when the corner was
+        set. mavros stamps a pose with the FCU's own time of it (LOCAL_POSITION_NED.time_boot_ms,
+        synchronised), so a pose delivered late by a busy machine does not lengthen the leg; the wait
+        allows for that lateness."""
         with self.lock:
             self.target = corner
             self.poses = []
