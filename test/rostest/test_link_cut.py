@@ -87,9 +87,8 @@ class LinkCutTest(OffboardTestCase):
                          % vehicle.describe())
         rospy.loginfo('%.0f s cut: disconnected %.2f s after the last heartbeat', LONG_CUT_S, lost - last_heartbeat)
         self.wait_until(lambda: vehicle.state.connected, LONG_CUT_S + 3.0, 'connected again', [vehicle])
-        # the first connected state after the loss, by the bridge's stamps: a busy test process may read the
-        # last state from before the cut (connected, armed) after it has asked for the cut
-        back = next(s for t, s in vehicle.states_since(start) if s.connected and s.header.stamp.to_sec() > lost)
+        # the first connected state after the loss, by the bridge's stamps (not the last one from before the cut)
+        back = next(s for t, s in vehicle.states_stamped_since(lost) if s.connected)
         self.assertFalse(back.armed, 'the vehicle should have landed and disarmed during the %.0f s cut: %s'
                          % (LONG_CUT_S, back))
         arms_before = node_log.count('Vehicle armed')

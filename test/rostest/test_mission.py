@@ -123,9 +123,8 @@ class MissionTest(OffboardTestCase):
         rospy.loginfo('landed %.2f s after the arm (PX4 %.2f-%.2f s)', landed_s - armed_s, *LANDED_S)
         # PX4 disarms 0.02-0.41 s after it lands, and the disarmed HEARTBEAT can come before the
         # EXTENDED_SYS_STATE that says so: the flight ends a report period (and a delivery) before the landing seen
-        # by the states' stamps too: a busy test may read the last disarmed state after the arming's answer
-        flight = [(t, s.mode, s.armed) for t, s in vehicle.states_since(armed_s)
-                  if s.header.stamp.to_sec() >= armed_s and t < landed_s - LANDED_SEEN_LATE_S]
+        flight = [(t, s.mode, s.armed) for t, s in vehicle.states_stamped_since(armed_s)
+                  if t < landed_s - LANDED_SEEN_LATE_S]
         self.assertTrue(flight, 'no state between the arm and the landing')
         self.assertTrue(all(mode == 'AUTO.MISSION' and armed for _, mode, armed in flight),
                         'AUTO.MISSION and armed from the arm to the landing: %r'

@@ -250,6 +250,12 @@ class Vehicle:
         with self.lock:
             return [(t, s) for t, s in self.states if t >= start]
 
+    def states_stamped_since(self, start):
+        """(time, State) stamped at or after ROS time `start` (the bridge's clock when the HEARTBEAT came): a busy
+        test may read a state from before an event (a cut, the arming's answer) after it, and states_since has it."""
+        with self.lock:
+            return [(t, s) for t, s in self.states if t >= start and s.header.stamp.to_sec() >= start]
+
     def offboard_and_armed(self):
         return self.state.mode == 'OFFBOARD' and self.state.armed
 
