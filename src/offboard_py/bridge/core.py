@@ -34,6 +34,7 @@ from offboard_py.bridge.scheduler import RETRY_DELAYS_S, TIMER_SLACK_S  # noqa: 
 
 WAIT_SLICE_S = 0.02  # wall seconds between looks at a deadline on the bridge's clock
 MAX_WAIT_S = 0.2     # the receive loop's longest sleep in real time (how soon it sees stop())
+RECEIVE_BATCH = 256  # datagrams read from one link before the due tasks run
 # The receive loop waits on poll() and reads everything that has come when it wakes. Reading on a
 # timer instead (every 4 ms while the FCU streams) woke the bridge more often on PX4's stream, not less:
 # 324-326 wake-ups/s and 4.7-5.3 % of a core against 259-265 and 4.0-4.5 % (bench --replay, alternated,
@@ -72,6 +73,10 @@ class Bridge:
         self.plugins = [plugin(self) for plugin in plugins]
         self._running = False
         self.next_task_s = None  # when the receive loop must next run a task (bridge clock), for the governed clock
+        # when the receive loop woke for datagrams it has not all read yet (bridge clock), else None: the
+        # governed clock may not run far past it, so that a timeout (conn/timeout, a command's ACK) never
+        # fires with the answer that ends it still unread in the socket
+        self.unread_since_s = None
         self._thread = None
 
     # -- MAVLink ------------------------------------------------------------------------------
@@ -298,8 +303,13 @@ class Bridge:
             wait_s = longest_wait_s if due_s is None else min(longest_wait_s, max(0.0, due_s - self._clock()))
             self.next_task_s = due_s  # the governed clock may not run far past it before this loop runs it
             try:
-                for fd, _ in poller.poll(wait_s * 1000.0):
-                    links[fd].receive()
+                ready = poller.poll(wait_s * 1000.0)
+                if ready and self.unread_since_s is None:
+                    self.unread_since_s = self._clock()
+                # a link read to its end (fewer than a batch: nothing was pending after the last) is caught up
+                read = [links[fd].receive(RECEIVE_BATCH) for fd, _ in ready]  # every link, each time
+                if all(count < RECEIVE_BATCH for count in read):
+                    self.unread_since_s = None
             except (OSError, ValueError):
                 break  # sockets closed at shutdown
             # most wake-ups are a datagram's: the tasks are looked at only once one is due

@@ -148,14 +148,15 @@ def _earliest(*times):
 
 
 def _clock_limit(endpoints, bridge):
-    """How far the governed clock may run for this bridge's sake: its receive loop's next task, and the setpoint
-    streams that may be starved rather than stopped (offboard_py.stream_watch); a stream given up is said."""
+    """How far the governed clock may run for this bridge's sake: its receive loop's next task and the datagrams
+    it has still to read (Bridge.unread_since_s), and the setpoint streams that may be starved rather than stopped
+    (offboard_py.stream_watch); a stream given up is said."""
     wall_s = time.monotonic()  # one reading for both: a stream's process is looked at once a tick
     for publisher, last_s, silent_s in endpoints.streams.let_go(wall_s):
         rospy.loginfo('the setpoints from %s stopped at %.2f s and have not come for %.1f wall seconds: the clock '
                       'goes on without them (PX4 takes the offboard signal as lost after COM_OF_LOSS_T)',
                       publisher, last_s, silent_s)
-    return _earliest(endpoints.streams.limit(wall_s), bridge.next_task_s)
+    return _earliest(endpoints.streams.limit(wall_s), bridge.next_task_s, bridge.unread_since_s)
 
 
 def main():
