@@ -23,6 +23,7 @@ import time
 import rospy
 from geometry_msgs.msg import PoseStamped
 from mavros_msgs.msg import State
+from sensor_msgs.msg import Imu
 
 from offboard_py.tools.hover_phases import PhaseWatcher
 from offboard_py.simtime import SimClock, SpeedError, parse_speed
@@ -54,9 +55,18 @@ class Watch:
         self.watcher = PhaseWatcher(t0, clock=clock)
         self.subs = [rospy.Subscriber(ns + '/mavros/state', State, self.watcher.on_state)]
         self.pose_sub = rospy.Subscriber(ns + '/mavros/local_position/pose', PoseStamped, self.watcher.on_pose)
+        self.imu_sub = None
+        self.fcu_stamp_lags_ms = []  # imu/data arrival minus its header stamp, from OFFBOARD to the hover
         if stamps is not None:
             self.subs.append(rospy.Subscriber(ns + '/mavros/setpoint_position/local', PoseStamped,
                                               lambda m: stamps.append(m.header.stamp.to_nsec()), tcp_nodelay=True))
+            self.imu_sub = rospy.Subscriber(ns + '/mavros/imu/data', Imu, self._on_imu, tcp_nodelay=True)
+
+    def _on_imu(self, msg):
+        """FCU time + the timesync offset, against ROS time at arrival: from OFFBOARD on (the node asks
+        5 s after the connection, when the offset filter has long converged)."""
+        if 'offboard' in self.phases:
+            self.fcu_stamp_lags_ms.append((rospy.Time.now() - msg.header.stamp).to_sec() * 1e3)
 
     @property
     def phases(self):
@@ -64,9 +74,11 @@ class Watch:
         return self.watcher.first
 
     def stop_watching_pose(self):
-        if self.pose_sub is not None:
-            self.pose_sub.unregister()
-            self.pose_sub = None
+        """Also the imu/data of the FCU stamp figure: the measured hover has neither subscription."""
+        for sub in (self.pose_sub, self.imu_sub):
+            if sub is not None:
+                sub.unregister()
+        self.pose_sub = self.imu_sub = None
 
     def close(self):
         self.stop_watching_pose()
@@ -222,6 +234,9 @@ def run(n, duration_s, logdir, latency=False, startup_timeout_s=None, speed=1.0,
             lat = latencies_ms(inside, stamps)
             entry['latency_ms'] = {'count': len(lat), 'p50': percentile(lat, 50), 'p99': percentile(lat, 99),
                                    'max': max(lat) if lat else None}
+            lags = watches[i].fcu_stamp_lags_ms
+            entry['fcu_stamp_lag_ms'] = {'count': len(lags), 'min': min(lags) if lags else None,
+                                         'p50': percentile(lags, 50), 'p99': percentile(lags, 99)}
         vehicles.append(entry)
     return vehicles
 
@@ -331,7 +346,7 @@ def _measure(args, scale, logdir):
     print('one vehicle, %.0f s of hover ...' % args.duration, flush=True)
     single = run(1, args.duration, logdir, latency=True, pack_datagrams=args.pack_datagrams, bridge=args.bridge)[0]
     result['single'] = single
-    s, lat, ph = single['stream'], single['latency_ms'], single['phases_s']
+    s, lat, ph, fcu = single['stream'], single['latency_ms'], single['phases_s'], single['fcu_stamp_lag_ms']
     total = sum(v for v in single['cpu_pct'].values() if v is not None)
 
     def met(ok):
@@ -349,6 +364,9 @@ def _measure(args, scale, logdir):
              '| gaps over 100 ms | %d | 0 | %s |' % (s['gaps_over_100ms'], met(s['gaps_over_100ms'] == 0)),
              '| latency ROS publish -> FCU p50 / p99 / max | %s / %s / %s ms | p99 <= 2 | %s |'
              % (fmt(lat['p50'], 2), fmt(lat['p99'], 2), fmt(lat['max'], 2), met(within(lat['p99'], 2.0))),
+             '| FCU-stamped imu/data: arrival - stamp min / p50 / p99 (%s, OFFBOARD to hover) | %s / %s / %s ms '
+             '| min within +-20 | %s |' % ((fcu['count'],) + tuple(fmt(fcu[k], 1) for k in ('min', 'p50', 'p99'))
+                                            + (met(fcu['min'] is not None and abs(fcu['min']) <= 20.0),)),
              '| simulator read lag (kernel arrival -> handled) p50 / p99 / max | %s / %s / %s ms | | |'
              % tuple(fmt(single['sim_read_lag_ms'][k], 2) for k in ('p50', 'p99', 'max')),
              '| simulator steps skipped (fallen %.2f s behind its clock) | %s | 0 | %s |'
