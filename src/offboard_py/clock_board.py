@@ -153,6 +153,8 @@ class Board:
             os.close(fd)
         self.speed = speed
         self.lead_s = LEAD_WALL_S * speed
+        # the latest time now() gave in this process: it never gives less (see now())
+        self._given_s, self._given_lock = float('-inf'), threading.Lock()
 
     # -- the clock, for every reader ----------------------------------------------------------------------
 
@@ -186,9 +188,18 @@ class Board:
         return pid_alive(header[6]) or any(pid_alive(slot[1]) for slot in self._slots())
 
     def now(self):
-        """Simulated seconds: speed x the monotonic clock since the base, held at the horizon."""
+        """Simulated seconds: speed x the monotonic clock since the base, held at the horizon; never less than
+        this process read before. The governor computes a horizon from a clock it read a moment before it
+        writes it, and a reader in between may have read past it (by the milliseconds a governor thread waits
+        for the GIL, or is preempted): the clock then stands for that reader until it catches up, and a
+        kernel stamp taken on it (at()) is never after a now() read later."""
         _, _, speed, base_mono, base_sim, horizon = self._read_header()[:6]
-        return min(base_sim + speed * (self._monotonic() - base_mono), horizon)
+        sim_s = min(base_sim + speed * (self._monotonic() - base_mono), horizon)
+        with self._given_lock:
+            if sim_s < self._given_s:
+                return self._given_s
+            self._given_s = sim_s
+        return sim_s
 
     def at(self, mono_s):
         """The simulated time the clock read at the monotonic instant mono_s (a kernel's receive stamp, in the
@@ -264,6 +275,14 @@ class Board:
             # held: go on from the horizon, not from where the formula got to meanwhile
             changes.update(base_mono=now_mono, base_sim=horizon)
         new_horizon = max(clock_s, slowest[0] + self.lead_s) if slowest else float('inf')
+        if horizon != float('inf'):
+            # granted: a reader may have read the clock up to it, so it is never taken back (a participant
+            # that reports less than before, the bridge's limit, one that joins behind, a stale one back)
+            new_horizon = max(new_horizon, horizon)
+        elif new_horizon != float('inf'):
+            # the first participant: down to where the clock is as this step writes, not where it was at its
+            # first look (it ran on meanwhile, and a reader may have read it)
+            new_horizon = max(new_horizon, base_sim + speed * (self._monotonic() - base_mono))
         changes['horizon'] = new_horizon
         waiting = slowest is not None and running >= horizon
         if waiting and not hold_started:  # held since the clock reached the horizon, not since this step saw it

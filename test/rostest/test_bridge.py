@@ -318,6 +318,10 @@ class BridgeTest(OffboardTestCase):
         self.wait_until(lambda: pub.get_num_connections() > 0 and log.sub.get_num_connections() > 0, 5.0,
                         'the bridge subscribing, and /rosout connected')
         velocity_only = VELOCITY_ONLY
+        # as test_05: a setpoint through first, so that the pair travels a connection known to deliver (the
+        # pair alone, on a fresh one, reached the bridge in none of 5 s once, in an idle fresh-clone run)
+        self.publish_until_at_fcu(pub, PositionTarget(coordinate_frame=mavlink.MAV_FRAME_LOCAL_NED,
+                                                      type_mask=velocity_only), 'SET_POSITION_TARGET_LOCAL_NED')
         before = len(self.fcu.of_type('SET_POSITION_TARGET_LOCAL_NED'))
         bad = PositionTarget(coordinate_frame=mavlink.MAV_FRAME_LOCAL_NED, type_mask=velocity_only)
         bad.velocity.z = float('nan')

@@ -65,6 +65,58 @@ def test_a_lagging_participant_holds_the_clock_and_it_goes_on_without_a_jump(tmp
     assert count == 1 and held_s > 0.1 and last == 'slow'
 
 
+def test_a_granted_horizon_is_never_taken_back(tmp_path, wall):
+    """A participant that reports less than it did (the bridge's limit: a task due in the past), or one that
+    joins behind, holds the clock where the horizon stands: a reader may have read up to it, and the clock
+    going back would take every process back with it (rospy's Rate.sleep raises on it)."""
+    board = board_at(tmp_path, wall)
+    p = board.join('p')
+    board.govern()
+    granted = board.now() + board.lead_s
+    wall.t += 0.01  # 0.05 s of the lead run
+    p.update(board.now() - 1.0)  # a limit 1 s back
+    board.govern()
+    wall.t += 0.1
+    other = Board(board.path, 5.0, monotonic=wall)  # a reader with no reading of its own yet
+    assert other.now() == pytest.approx(granted), 'held at the horizon granted, not 1 s back'
+
+
+def test_the_first_participant_holds_the_clock_where_it_stands_at_the_write(tmp_path, wall):
+    """With no participant the clock runs free; the first holds it where it stands when the horizon is written,
+    not where it stood at the governor's first look: a reader in between (another thread while the governor
+    waits for the GIL, another process while it is preempted) has seen it run on."""
+    board, reader = board_at(tmp_path, wall), board_at(tmp_path, wall)
+    board.govern()
+    p = board.join('p')
+    p.update(board.now() - 1.0)  # joined 1 s behind (a process that read the clock, then waited for the CPU)
+    seen = []
+    looked = board.participants
+
+    def participants():
+        wall.t += 0.004  # the governor off the CPU for 4 ms between its look at the clock and its write
+        seen.append(reader.now())
+        return looked()
+
+    board.participants = participants
+    board.govern()
+    wall.t += 0.1
+    after = Board(board.path, 5.0, monotonic=wall).now()  # a reader with no reading of its own
+    assert after == pytest.approx(seen[0]), 'held where it stood at the write (%.3f), not %.3f' % (seen[0], after)
+
+
+def test_a_process_never_reads_less_than_it_read_before(tmp_path, wall):
+    """Whatever a header says, now() in one process does not go back (a board written by a governor that
+    was preempted between its look and its write): it stands until the clock gets there."""
+    board, governor = board_at(tmp_path, wall), board_at(tmp_path, wall)
+    before = board.now()
+    governor._write_header(horizon=before - 0.5)
+    assert board.now() == before, 'stands at what it read'
+    assert governor.now() == pytest.approx(before - 0.5), 'a fresh reader reads the header'
+    governor._write_header(horizon=float('inf'))
+    wall.t += 0.2
+    assert board.now() == pytest.approx(before + 1.0)
+
+
 def test_the_clock_never_runs_backwards(tmp_path, wall):
     board = board_at(tmp_path, wall)
     p = board.join('p')
