@@ -49,6 +49,8 @@ def test_a_topic_nobody_publishes_is_only_asked_about_and_a_connection_ends_it()
     assert ('/mavros/setpoint_raw/global', []) not in rig.handed and rig.said == ['the subscription to '
            '/mavros/state had no connection for 2 wall seconds while the master lists its publishers '
            'http://localhost:39967/: handed on again (rospy kept an older, empty list)']
+    rig.run_for(2 * MEND_AFTER_WALL_S)  # still unconnected (a publisher killed stays listed): handed on, said once
+    assert len(rig.handed) >= 2 and len(rig.said) == 1, (rig.handed, rig.said)
     rig.subs['/mavros/state'] = 1  # the mending worked
     handed = len(rig.handed)
     rig.run_for(3 * MEND_AFTER_WALL_S)

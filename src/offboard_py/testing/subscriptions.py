@@ -79,7 +79,7 @@ class SubscriptionMender:
                 self._say('the subscription to %s has had no connection for %.0f wall seconds, and asking the '
                           'master for its publishers failed: %s' % (topic, now_s - since_s, err))
                 continue
-            if uris:
+            if uris and (topic, list(uris)) not in self.mended:  # said once (a publisher killed stays listed)
                 self.mended.append((topic, list(uris)))
                 self._say('the subscription to %s had no connection for %.0f wall seconds while the master lists '
                           'its publishers %s: handed on again (rospy kept an older, empty list)'
