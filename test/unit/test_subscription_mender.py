@@ -19,7 +19,7 @@ class Rig:
         self.mender = SubscriptionMender(
             clock=self.clock, subscriptions=lambda: [(t, 'x/Y', n) for t, n in self.subs.items()],
             master_publishers=self.master_publishers, hand_on=lambda t, uris: self.handed.append((t, uris)),
-            say=self.said.append)
+            say=self.said.append, own_uri=lambda: 'http://localhost:40001/')
 
     def master_publishers(self, topic, _type):
         self.asked.append(topic)
@@ -69,3 +69,11 @@ def test_a_master_that_does_not_answer_is_said_with_the_topic():
     rig.mender._master_publishers = lambda t, _: (_ for _ in ()).throw(xmlrpc.client.Fault(1, 'bad'))
     rig.run_for(MEND_AFTER_WALL_S + LOOK_EVERY_WALL_S)
     assert any('bad' in line for line in rig.said)
+
+
+def test_this_nodes_own_publications_are_not_handed_on():
+    """A test node's own publisher (bridge.test publishes on the topics its Vehicle watches) is left to rospy."""
+    rig = Rig()
+    rig.publishers['/mavros/setpoint_raw/global'] = ['http://localhost:40001/']
+    rig.run_for(MEND_AFTER_WALL_S + LOOK_EVERY_WALL_S + 0.2)
+    assert [topic for topic, _ in rig.handed] == ['/mavros/state']

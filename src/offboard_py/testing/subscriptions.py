@@ -49,8 +49,8 @@ class SubscriptionMender:
     """look() now and then (OffboardTestCase.guard does, in every wait): mends what rospy's race left."""
 
     def __init__(self, clock=time.monotonic, subscriptions=_subscriptions, master_publishers=_master_publishers,
-                 hand_on=_hand_on, say=rospy.logwarn):
-        self._clock, self._subscriptions = clock, subscriptions
+                 hand_on=_hand_on, say=rospy.logwarn, own_uri=rospy.get_node_uri):
+        self._clock, self._subscriptions, self._own_uri = clock, subscriptions, own_uri
         self._master_publishers, self._hand_on, self._say = master_publishers, hand_on, say
         self._unconnected_since = {}
         self._next_look_s = 0.0
@@ -72,7 +72,9 @@ class SubscriptionMender:
                 continue
             self._unconnected_since[topic] = now_s  # the next try after as long again
             try:
-                uris = self._master_publishers(topic, topic_type)
+                # not this node's own publications: those connect within the process, and a test's publisher
+                # that comes and goes (bridge.test's) is no race of the master's
+                uris = [uri for uri in self._master_publishers(topic, topic_type) if uri != self._own_uri()]
                 if uris:
                     self._hand_on(topic, uris)
             except (OSError, rosgraph.MasterException, xmlrpc.client.Error) as err:
