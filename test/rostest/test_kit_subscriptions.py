@@ -2,7 +2,6 @@
 """The test kit mends a subscription that rospy's registration race left without its publisher
 (offboard_py.testing.subscriptions): the race's effect made on purpose, on a real master and real topics."""
 
-import subprocess
 import sys
 import time
 
@@ -11,6 +10,7 @@ import rostest
 from rospy.impl.registration import RegManager, get_registration_listeners
 from std_msgs.msg import String
 
+from offboard_py.testing.processes import OutputProcess
 from offboard_py.testing.rostest_common import OffboardTestCase
 
 PKG = 'offboard_py'
@@ -32,9 +32,9 @@ while not rospy.is_shutdown():
 class KitSubscriptionTest(OffboardTestCase):
     def test_a_subscription_left_without_its_publisher_is_mended(self):
         manager = next(l for l in get_registration_listeners().listeners if isinstance(l, RegManager))
-        publisher = subprocess.Popen([sys.executable, '-c', PUBLISHER])
-        self.addCleanup(publisher.wait, 10.0)
-        self.addCleanup(publisher.terminate)
+        publisher = OutputProcess([sys.executable, '-c', PUBLISHER])
+        self.addCleanup(publisher.wait_exit, 10.0)
+        self.addCleanup(publisher.proc.terminate)
         self.wait_until(lambda: TOPIC in [t for t, _ in rospy.get_published_topics()], 20.0,
                         'the publisher node advertising %s' % TOPIC, min_wall_s=20.0)
         handed_on = manager.publisher_update
