@@ -277,12 +277,20 @@ class Vehicle:
         """(time, z ENU) history: the heights of `positions` (a copy; safe with or without `lock` held)."""
         return [(t, p[2]) for t, p in list(self.positions)]
 
-    def offset_from(self, position_enu):
-        """(horizontal, vertical) metres from the last pose to position_enu (x, y, z); inf before the first pose."""
-        if self.pose is None:
-            return float('inf'), float('inf')
-        p = self.pose.pose.position
-        return _offset((p.x, p.y, p.z), position_enu)
+def _reached(vehicle, accept):
+    """A predicate for wait_until: has any pose that came since now met accept(position)? Every pose is looked
+    at, not only the newest at each look: a vehicle that passes through (a corner it turns at) is inside for a
+    second or less, and a look that a busy machine delays by a tenth of a wall second is half a simulated
+    second late at 5x."""
+    with vehicle.lock:
+        looked = [len(vehicle.positions)]
+
+    def predicate():
+        with vehicle.lock:
+            fresh = vehicle.positions[looked[0]:]
+        looked[0] += len(fresh)
+        return any(accept(p) for _, p in fresh)
+    return predicate
 
 
 def _closest(vehicle, start, distance, describe):
@@ -428,23 +436,12 @@ class OffboardTestCase(unittest.TestCase):
             horizontal, vertical = _offset(p, position_enu)
             return max(horizontal / horizontal_m, vertical / vertical_m)
 
-        # every pose that came since the wait began is looked at, not only the newest at each look: a vehicle
-        # that passes through (a corner it turns at) is inside for a second or less, and a look that a busy
-        # machine delays by a tenth of a wall second is half a simulated second late at 5x
-        with vehicle.lock:
-            looked = [len(vehicle.positions)]
-
-        def within():
-            with vehicle.lock:
-                fresh = vehicle.positions[looked[0]:]
-            looked[0] += len(fresh)
-            return any(excess(p) <= 1.0 for _, p in fresh)
-
         def off(p):
             horizontal, vertical = _offset(p, position_enu)
             return '%.2f m horizontally, %+.2f m vertically from it' % (horizontal, p[2] - position_enu[2])
-        self.wait_until(within, timeout_s, 'position ENU (%.2f, %.2f, %.2f) +- %.2f m horizontally, +- %.2f m '
-                        'vertically' % (tuple(position_enu) + (horizontal_m, vertical_m)), [vehicle],
+        what = ('position ENU (%.2f, %.2f, %.2f) +- %.2f m horizontally, +- %.2f m vertically'
+                % (tuple(position_enu) + (horizontal_m, vertical_m)))
+        self.wait_until(_reached(vehicle, lambda p: excess(p) <= 1.0), timeout_s, what, [vehicle],
                         closest=lambda start: _closest(vehicle, start, excess, off))
 
     def assert_holds_position(self, vehicle, position_enu, duration_s, horizontal_m=1.0, vertical_m=0.2):

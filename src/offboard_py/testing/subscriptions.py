@@ -74,7 +74,8 @@ class SubscriptionMender:
             try:
                 # not this node's own publications: those connect within the process, and a test's publisher
                 # that comes and goes (bridge.test's) is no race of the master's
-                uris = [uri for uri in self._master_publishers(topic, topic_type) if uri != self._own_uri()]
+                own = self._own_uri()
+                uris = [uri for uri in self._master_publishers(topic, topic_type) if uri != own]
                 if uris:
                     self._hand_on(topic, uris)
             except (OSError, rosgraph.MasterException, xmlrpc.client.Error) as err:
