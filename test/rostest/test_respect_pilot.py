@@ -4,7 +4,7 @@
 import rospy
 import rostest
 
-from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle
+from offboard_py.testing.rostest_common import OffboardTestCase, RosoutRecorder, Vehicle, now
 
 PKG = 'offboard_py'
 
@@ -17,13 +17,23 @@ class RespectPilotTest(OffboardTestCase):
         both = [polite, default]
         self.wait_for_offboard_and_armed(both, 90.0, 'both OFFBOARD and armed')
         self.wait_until(lambda: all(abs(u.z() - 2.0) <= 0.15 for u in both), 30.0, 'both at 2 m', both)
+        switched = now()
         for uav in both:  # the pilot takes over
             self.assertTrue(self.set_mode(uav, 'AUTO.LOITER'))
-        self.wait_until(lambda: all(u.state.mode == 'AUTO.LOITER' for u in both), 5.0, 'both in AUTO.LOITER', both)
-        self.wait_until(lambda: default.state.mode == 'OFFBOARD', 15.0,
+
+        def loiter_since(uav):
+            """When the state first said AUTO.LOITER after the switch, or None. The default node takes OFFBOARD
+            back at the first state that says otherwise, so its vehicle may show AUTO.LOITER for a single
+            HEARTBEAT (1 s), which need not overlap the other's first one: the histories say it, not a poll."""
+            return next((t for t, s in uav.states_since(switched) if s.mode == 'AUTO.LOITER'), None)
+
+        self.wait_until(lambda: all(loiter_since(u) is not None for u in both), 5.0, 'both in AUTO.LOITER', both)
+        loitered = loiter_since(default)
+        self.wait_until(lambda: any(s.mode == 'OFFBOARD' for _, s in default.states_since(loitered)), 15.0,
                         'the default node taking OFFBOARD back', both)
         self.pause(6.0)  # longer than the 5 s request interval
-        self.assertEqual(polite.state.mode, 'AUTO.LOITER',
+        modes = sorted({s.mode for _, s in polite.states_since(loiter_since(polite))})
+        self.assertEqual(modes, ['AUTO.LOITER'],
                          'respect_pilot:=true must leave the pilot\'s mode alone (%s)' % polite.describe())
         self.assertTrue(any(line.startswith('Pilot took over') for line in log.lines), log.lines)
 
