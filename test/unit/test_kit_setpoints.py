@@ -1,6 +1,6 @@
 """The test kit's Vehicle sees every setpoint a mavros user sends (offboard_py.testing.rostest_common):
-each of mavros 1.21's setpoint topics, and of a raw message only the fields its type_mask does not ignore.
-No ROS master: the message classes and the decoding only."""
+each of mavros 1.21's setpoint topics, and of a raw message only the fields its type_mask does not ignore;
+and what its waits look at. No ROS master: the message classes, the decoding and the predicates only."""
 
 import math
 import os
@@ -92,3 +92,23 @@ def test_closest_approach_says_where_and_when():
     text = rostest_common._closest(Seen(), 10.0, lambda p: abs(p[2] - 2.0), lambda p: '%+.2f m from it' % (p[2] - 2.0))
     assert text == 'ENU (0.00, 0.00, 0.90) at 1.0 s into the wait, -1.10 m from it', 'before the wait does not count'
     assert rostest_common._closest(Seen(), 20.0, abs, str) == 'no pose since the wait began'
+
+
+def test_a_mode_shown_for_one_heartbeat_between_two_looks_counts():
+    """wait_for_mode's predicate (_seen) looks at every state since the wait began: the default node takes
+    OFFBOARD back at the first AUTO.LOITER state, and a look after it must still see the pilot's switch."""
+    from mavros_msgs.msg import State
+
+    class Seen:
+        lock = rostest_common.threading.Lock()
+        state = State(mode='OFFBOARD')
+        states = [(1.0, State(mode='AUTO.LOITER')), (2.0, State(mode='OFFBOARD'))]  # before the wait
+
+    vehicle = Seen()
+    predicate = rostest_common._seen(vehicle, lambda s: s.mode == 'AUTO.LOITER')
+    assert not predicate(), 'a state from before the wait does not count'
+    vehicle.states += [(3.0, State(mode='AUTO.LOITER')), (4.0, State(mode='OFFBOARD'))]
+    vehicle.state = vehicle.states[-1][1]
+    assert predicate(), 'AUTO.LOITER came and went between two looks'
+    assert rostest_common._seen(vehicle, lambda s: s.mode == 'OFFBOARD')(), 'the newest state counts at once'
+    assert not rostest_common._seen(vehicle, lambda s: s.armed)(), 'nothing armed since'

@@ -293,6 +293,24 @@ def _reached(vehicle, accept):
     return predicate
 
 
+def _seen(vehicle, accept):
+    """A predicate for wait_until: does the newest state, or any state that came since now, meet accept(state)?
+    Every state is looked at, as _reached looks at every pose: a mode a vehicle passes through (a Hold before
+    the Return, the pilot's mode before a node takes OFFBOARD back) may be shown for a single 1 Hz HEARTBEAT,
+    0.2 wall seconds at 5x, which a look that a busy machine delays can miss."""
+    with vehicle.lock:
+        looked, current = [len(vehicle.states)], vehicle.state
+    if accept(current):
+        return lambda: True
+
+    def predicate():
+        with vehicle.lock:
+            fresh = vehicle.states[looked[0]:]
+        looked[0] += len(fresh)
+        return any(accept(s) for _, s in fresh)
+    return predicate
+
+
 def _closest(vehicle, start, distance, describe):
     """Where the vehicle came nearest (by distance(position)) since ROS time start, and when: a text."""
     with vehicle.lock:
@@ -393,10 +411,13 @@ class OffboardTestCase(unittest.TestCase):
                         min_wall_s=START_WALL_S)
 
     def wait_for_mode(self, vehicle, mode, timeout_s):
-        self.wait_until(lambda: vehicle.state.mode == mode, timeout_s, 'mode %s' % mode, [vehicle])
+        """The vehicle in `mode` now or in any state since the wait began, within timeout_s (_seen)."""
+        self.wait_until(_seen(vehicle, lambda s: s.mode == mode), timeout_s, 'mode %s' % mode, [vehicle])
 
     def wait_for_armed(self, vehicle, armed, timeout_s):
-        self.wait_until(lambda: vehicle.state.armed == armed, timeout_s, 'armed' if armed else 'disarm', [vehicle])
+        """The vehicle armed (or disarmed) now or in any state since the wait began, within timeout_s (_seen)."""
+        self.wait_until(_seen(vehicle, lambda s: s.armed == armed), timeout_s, 'armed' if armed else 'disarm',
+                        [vehicle])
 
     def wait_for_offboard_and_armed(self, vehicles, timeout_s, what='OFFBOARD and armed'):
         """Every one of vehicles (a Vehicle or a list) in OFFBOARD and armed at once."""
