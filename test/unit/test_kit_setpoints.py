@@ -112,3 +112,18 @@ def test_a_mode_shown_for_one_heartbeat_between_two_looks_counts():
     assert predicate(), 'AUTO.LOITER came and went between two looks'
     assert rostest_common._seen(vehicle, lambda s: s.mode == 'OFFBOARD')(), 'the newest state counts at once'
     assert not rostest_common._seen(vehicle, lambda s: s.armed)(), 'nothing armed since'
+
+
+def test_a_pose_passed_through_between_two_looks_counts():
+    """wait_for_position's and wait_for_altitude's predicate (_reached) looks at every pose since the wait
+    began: a vehicle that turns at a corner, or overshoots through 2 m, is inside for less than a look's delay."""
+    class Seen:
+        lock = rostest_common.threading.Lock()
+        positions = [(1.0, (0.0, 0.0, 2.0))]  # before the wait
+
+    vehicle = Seen()
+    at_2m = rostest_common._reached(vehicle, lambda p: abs(p[2] - 2.0) <= 0.1)
+    assert not at_2m(), 'a pose from before the wait does not count'
+    vehicle.positions += [(2.0, (0.0, 0.0, 1.5)), (2.1, (0.0, 0.0, 1.95)), (2.2, (0.0, 0.0, 2.3))]
+    assert at_2m(), '1.95 m came and went between two looks'
+    assert not rostest_common._reached(vehicle, lambda p: True)(), 'a new predicate starts after the poses it had'

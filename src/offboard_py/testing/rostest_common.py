@@ -425,7 +425,9 @@ class OffboardTestCase(unittest.TestCase):
         self.wait_until(lambda: all(v.offboard_and_armed() for v in vehicles), timeout_s, what, vehicles)
 
     def wait_for_altitude(self, vehicle, z_m, tolerance_m, timeout_s):
-        self.wait_until(lambda: abs(vehicle.z() - z_m) <= tolerance_m, timeout_s,
+        """A pose within tolerance_m of z_m (ENU, m) within timeout_s: any pose that came since the wait began
+        (_reached), as wait_for_position; else fail saying where the vehicle came closest."""
+        self.wait_until(_reached(vehicle, lambda p: abs(p[2] - z_m) <= tolerance_m), timeout_s,
                         'altitude %.2f +- %.2f m' % (z_m, tolerance_m), [vehicle],
                         closest=lambda start: _closest(vehicle, start, lambda p: abs(p[2] - z_m),
                                                        lambda p: '%+.2f m from it' % (p[2] - z_m)))
