@@ -277,38 +277,35 @@ class Vehicle:
         """(time, z ENU) history: the heights of `positions` (a copy; safe with or without `lock` held)."""
         return [(t, p[2]) for t, p in list(self.positions)]
 
-def _reached(vehicle, accept):
-    """A predicate for wait_until: has any pose that came since now met accept(position)? Every pose is looked
-    at, not only the newest at each look: a vehicle that passes through (a corner it turns at) is inside for a
+def _any_since(vehicle, history, accept):
+    """A predicate for wait_until: has any (t, sample) appended to vehicle.<history> since now met accept(sample)?
+    Every sample is looked at, not only the newest at each look: what a vehicle passes through is there for a
     second or less, and a look that a busy machine delays by a tenth of a wall second is half a simulated
     second late at 5x."""
     with vehicle.lock:
-        looked = [len(vehicle.positions)]
+        looked = [len(getattr(vehicle, history))]
 
     def predicate():
         with vehicle.lock:
-            fresh = vehicle.positions[looked[0]:]
+            fresh = getattr(vehicle, history)[looked[0]:]
         looked[0] += len(fresh)
-        return any(accept(p) for _, p in fresh)
+        return any(accept(sample) for _, sample in fresh)
     return predicate
+
+
+def _reached(vehicle, accept):
+    """Has any pose since now met accept(position)? (a corner the vehicle turns at, an overshoot through 2 m)"""
+    return _any_since(vehicle, 'positions', accept)
 
 
 def _seen(vehicle, accept):
-    """A predicate for wait_until: does the newest state, or any state that came since now, meet accept(state)?
-    Every state is looked at, as _reached looks at every pose: a mode a vehicle passes through (a Hold before
-    the Return, the pilot's mode before a node takes OFFBOARD back) may be shown for a single 1 Hz HEARTBEAT,
-    0.2 wall seconds at 5x, which a look that a busy machine delays can miss."""
+    """Does the newest state, or any state since now, meet accept(state)? A mode a vehicle passes through (a Hold
+    before the Return, the pilot's mode before a node takes OFFBOARD back) may be shown for a single 1 Hz
+    HEARTBEAT, 0.2 wall seconds at 5x."""
+    since = _any_since(vehicle, 'states', accept)  # first: a state that comes before the newest is read is in it
     with vehicle.lock:
-        looked, current = [len(vehicle.states)], vehicle.state
-    if accept(current):
-        return lambda: True
-
-    def predicate():
-        with vehicle.lock:
-            fresh = vehicle.states[looked[0]:]
-        looked[0] += len(fresh)
-        return any(accept(s) for _, s in fresh)
-    return predicate
+        current = vehicle.state
+    return (lambda: True) if accept(current) else since
 
 
 def _closest(vehicle, start, distance, describe):
