@@ -90,12 +90,9 @@ class FailsafeCase(OffboardTestCase):
 
     def seconds_to(self, mode, start, timeout_s):
         """Seconds from `start` to the first state in `mode`, by its stamp (the bridge's clock when the
-        HEARTBEAT came, as mavros stamps it), not when this node read it; found in the history, so that a mode
-        shown for a single HEARTBEAT counts however late this node looks."""
-        def entered():
-            return next((stamp(s) for _, s in self.vehicle.states_since(start) if s.mode == mode), None)
-        self.wait_until(lambda: entered() is not None, timeout_s, 'mode %s' % mode, [self.vehicle])
-        return entered() - start
+        HEARTBEAT came, as mavros stamps it), not when this node read it."""
+        self.wait_for_mode(self.vehicle, mode, timeout_s, since=start)
+        return next(stamp(s) for _, s in self.vehicle.states_since(start) if s.mode == mode) - start
 
 
 class Battery(FailsafeCase):

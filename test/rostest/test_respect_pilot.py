@@ -20,17 +20,13 @@ class RespectPilotTest(OffboardTestCase):
         switched = now()
         for uav in both:  # the pilot takes over
             self.assertTrue(self.set_mode(uav, 'AUTO.LOITER'))
+        for uav in both:  # the default node takes OFFBOARD back at its first AUTO.LOITER state: one HEARTBEAT (1 s)
+            self.wait_for_mode(uav, 'AUTO.LOITER', 5.0, since=switched)
 
         def loiter_since(uav):
-            """When the state first said AUTO.LOITER after the switch, or None. The default node takes OFFBOARD
-            back at the first state that says otherwise, so its vehicle may show AUTO.LOITER for a single
-            HEARTBEAT (1 s), which need not overlap the other's first one: the histories say it, not a poll."""
-            return next((t for t, s in uav.states_since(switched) if s.mode == 'AUTO.LOITER'), None)
+            return next(t for t, s in uav.states_since(switched) if s.mode == 'AUTO.LOITER')
 
-        self.wait_until(lambda: all(loiter_since(u) is not None for u in both), 5.0, 'both in AUTO.LOITER', both)
-        loitered = loiter_since(default)
-        self.wait_until(lambda: any(s.mode == 'OFFBOARD' for _, s in default.states_since(loitered)), 15.0,
-                        'the default node taking OFFBOARD back', both)
+        self.wait_for_mode(default, 'OFFBOARD', 15.0, since=loiter_since(default))
         self.pause(6.0)  # longer than the 5 s request interval
         modes = sorted({s.mode for _, s in polite.states_since(loiter_since(polite))})
         self.assertEqual(modes, ['AUTO.LOITER'],

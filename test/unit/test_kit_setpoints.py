@@ -112,6 +112,9 @@ def test_a_mode_shown_for_one_heartbeat_between_two_looks_counts():
     assert predicate(), 'AUTO.LOITER came and went between two looks'
     assert rostest_common._seen(vehicle, lambda s: s.mode == 'OFFBOARD')(), 'the newest state counts at once'
     assert not rostest_common._seen(vehicle, lambda s: s.armed)(), 'nothing armed since'
+    since_3 = rostest_common._seen(vehicle, lambda s: s.mode == 'AUTO.LOITER', since=3.0)
+    assert since_3(), 'a state received at the time given counts, though it came before the wait'
+    assert not rostest_common._seen(vehicle, lambda s: s.mode == 'AUTO.LOITER', since=3.5)(), 'nor one before it'
 
 
 def test_a_pose_passed_through_between_two_looks_counts():

@@ -277,13 +277,16 @@ class Vehicle:
         """(time, z ENU) history: the heights of `positions` (a copy; safe with or without `lock` held)."""
         return [(t, p[2]) for t, p in list(self.positions)]
 
-def _any_since(vehicle, history, accept):
-    """A predicate for wait_until: has any (t, sample) appended to vehicle.<history> since now met accept(sample)?
-    Every sample is looked at, not only the newest at each look: what a vehicle passes through is there for a
-    second or less, and a look that a busy machine delays by a tenth of a wall second is half a simulated
-    second late at 5x."""
+def _any_since(vehicle, history, accept, since=None):
+    """A predicate for wait_until: has any (t, sample) of vehicle.<history> that came since now (or since ROS
+    time `since`) met accept(sample)? Every sample is looked at, not only the newest at each look: what a
+    vehicle passes through is there for a second or less, and a look that a busy machine delays by a tenth of a
+    wall second is half a simulated second late at 5x."""
     with vehicle.lock:
-        looked = [len(getattr(vehicle, history))]
+        samples = getattr(vehicle, history)
+        first = len(samples) if since is None else next((i for i, (t, _) in enumerate(samples) if t >= since),
+                                                         len(samples))
+        looked = [first]
 
     def predicate():
         with vehicle.lock:
@@ -298,14 +301,16 @@ def _reached(vehicle, accept):
     return _any_since(vehicle, 'positions', accept)
 
 
-def _seen(vehicle, accept):
-    """Does the newest state, or any state since now, meet accept(state)? A mode a vehicle passes through (a Hold
-    before the Return, the pilot's mode before a node takes OFFBOARD back) may be shown for a single 1 Hz
-    HEARTBEAT, 0.2 wall seconds at 5x."""
-    since = _any_since(vehicle, 'states', accept)  # first: a state that comes before the newest is read is in it
+def _seen(vehicle, accept, since=None):
+    """Does the newest state, or any state since now, meet accept(state)? With `since` (ROS time): any state
+    received since then, and only those. A mode a vehicle passes through (a Hold before the Return, the pilot's
+    mode before a node takes OFFBOARD back) may be shown for a single 1 Hz HEARTBEAT, 0.2 wall seconds at 5x."""
+    fresh = _any_since(vehicle, 'states', accept, since)  # first: a state that comes before the newest is read is in it
+    if since is not None:
+        return fresh
     with vehicle.lock:
         current = vehicle.state
-    return (lambda: True) if accept(current) else since
+    return (lambda: True) if accept(current) else fresh
 
 
 def _closest(vehicle, start, distance, describe):
@@ -407,14 +412,16 @@ class OffboardTestCase(unittest.TestCase):
         self.wait_until(lambda: vehicle.state.connected, timeout_s, 'FCU connection', [vehicle],
                         min_wall_s=START_WALL_S)
 
-    def wait_for_mode(self, vehicle, mode, timeout_s):
-        """The vehicle in `mode` now or in any state since the wait began, within timeout_s (_seen)."""
-        self.wait_until(_seen(vehicle, lambda s: s.mode == mode), timeout_s, 'mode %s' % mode, [vehicle])
+    def wait_for_mode(self, vehicle, mode, timeout_s, since=None):
+        """The vehicle in `mode` now or in any state since the wait began (with `since`, a ROS time: in any
+        state received since then, such as a command sent before the wait), within timeout_s (_seen)."""
+        self.wait_until(_seen(vehicle, lambda s: s.mode == mode, since), timeout_s, 'mode %s' % mode, [vehicle])
 
-    def wait_for_armed(self, vehicle, armed, timeout_s):
-        """The vehicle armed (or disarmed) now or in any state since the wait began, within timeout_s (_seen)."""
-        self.wait_until(_seen(vehicle, lambda s: s.armed == armed), timeout_s, 'armed' if armed else 'disarm',
-                        [vehicle])
+    def wait_for_armed(self, vehicle, armed, timeout_s, since=None):
+        """The vehicle armed (or disarmed) now or in any state since the wait began (or since `since`), within
+        timeout_s (_seen)."""
+        self.wait_until(_seen(vehicle, lambda s: s.armed == armed, since), timeout_s,
+                        'armed' if armed else 'disarm', [vehicle])
 
     def wait_for_offboard_and_armed(self, vehicles, timeout_s, what='OFFBOARD and armed'):
         """Every one of vehicles (a Vehicle or a list) in OFFBOARD and armed at once."""
