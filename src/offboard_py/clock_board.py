@@ -306,19 +306,36 @@ class Board:
 
 class ThreadParticipant:
     """A participant whose keeping up is that it gets the CPU (a test's MAVLink client, the relay): a daemon
-    thread writes clock.now() into its slot every UPDATE_WALL_S until leave()."""
+    thread writes progress() into its slot every UPDATE_WALL_S until leave(). A periodic sender of the process
+    (a ground station's joystick, a setpoint stream) says when its next send is due (due()), and the slot stays
+    no further than the earliest: a sender the CPU left behind holds the clock, so PX4 does not count its
+    MANUAL_CONTROL or setpoints lost while the thread that reports the process keeps running."""
 
     UPDATE_WALL_S = 0.01
 
     def __init__(self, board, name):
         self.participant = board.join(name)
         self.board, self.running = board, True
+        self._dues, self._lock = {}, threading.Lock()
         self.thread = threading.Thread(target=self._run, name='clock participant', daemon=True)
         self.thread.start()
 
+    def due(self, sender, sim_s):
+        """`sender`'s next send is due at sim_s (simulated s); None: it has stopped sending."""
+        with self._lock:
+            if sim_s is None:
+                self._dues.pop(sender, None)
+            else:
+                self._dues[sender] = sim_s
+
+    def progress(self):
+        """The clock, or the earliest send due, if earlier."""
+        with self._lock:
+            return min([self.board.now()] + list(self._dues.values()))
+
     def _run(self):
         while self.running:
-            self.participant.update(self.board.now())
+            self.participant.update(self.progress())
             time.sleep(self.UPDATE_WALL_S)
         self.participant.leave()
 

@@ -339,3 +339,19 @@ def test_one_tick_looks_at_a_silent_nodes_process_once():
     assert asked == ['/node']
     watch.limit(tick + 0.01)
     assert asked == ['/node', '/node'], 'asked again at the next tick'
+
+
+def test_a_periodic_sender_late_for_its_send_holds_its_process_slot(tmp_path, wall):
+    """A ground station's joystick thread that the CPU left behind: its process's reporting thread still runs,
+    but the slot stays at the send due, so the clock waits instead of PX4 counting MANUAL_CONTROL lost."""
+    board = board_at(tmp_path, wall)
+    client = clock_board.ThreadParticipant(board, 'client')
+    try:
+        assert client.progress() == pytest.approx(500.0), 'no sender: the clock'
+        client.due('joystick', 500.05)
+        wall.t += 0.2                                       # 1 simulated second, the joystick not sent
+        assert client.progress() == pytest.approx(500.05), 'held at the send due'
+        client.due('joystick', None)
+        assert client.progress() == pytest.approx(board.now()), 'a sender stopped holds nothing'
+    finally:
+        client.leave()

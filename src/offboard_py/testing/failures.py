@@ -63,18 +63,22 @@ class Failures:
         self._closed = threading.Event()
         if heartbeat:
             self._heartbeat.set()
-        self._threads = [threading.Thread(target=self._every, args=(HEARTBEAT_PERIOD_S, self._heartbeat,
-                                                                      self._send_heartbeat), daemon=True),
-                         threading.Thread(target=self._every, args=(JOYSTICK_PERIOD_S, self._joystick,
-                                                                      self._send_manual_control), daemon=True)]
+        senders = [('heartbeat', HEARTBEAT_PERIOD_S, self._heartbeat, self._send_heartbeat),
+                   ('joystick', JOYSTICK_PERIOD_S, self._joystick, self._send_manual_control)]
+        self._threads = [threading.Thread(target=self._every, args=sender, daemon=True) for sender in senders]
         for thread in self._threads:
             thread.start()
 
-    def _every(self, period_s, enabled, send):
+    def _every(self, sender, period_s, enabled, send):
+        """send() every period_s while enabled; the governed clock waits for the next one (Client.due)."""
         while not self._closed.is_set():
             if enabled.is_set():
                 send()
+                self.client.due(sender, self.clock.now() + period_s)
+            else:
+                self.client.due(sender, None)
             self._closed.wait(self.clock.wall_s(period_s))
+        self.client.due(sender, None)
 
     def _send_heartbeat(self):
         self.client.send(self.client.mav.heartbeat_encode(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,

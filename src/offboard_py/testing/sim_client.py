@@ -213,6 +213,12 @@ class Client:
     def disable_signing(self):
         self.mav.signing.secret_key, self.mav.signing.sign_outgoing = None, False
 
+    def due(self, sender, sim_s):
+        """A periodic sender of this client's process has its next send due at sim_s (None: stopped): on a
+        governed clock the clock waits for it (clock_board.ThreadParticipant.due)."""
+        if self._participant is not None:
+            self._participant.due(sender, sim_s)
+
     def close(self):
         self.stop_stream()
         if self._participant is not None:
@@ -368,7 +374,9 @@ class Client:
                 self.send(message() if message else self.setpoint(north, east, down))
                 self.last_setpoint_s = self.now()
                 next_s += period
+                self.due('setpoint stream', next_s)
                 stop.wait(self.clock.wall_s(max(0.0, next_s - self.now())))
+            self.due('setpoint stream', None)
         thread = threading.Thread(target=run, daemon=True)
         self._stream = (stop, thread)
         thread.start()
